@@ -1,0 +1,1 @@
+"""The compiled core: plain ``@njit`` functions over arrays (see ARCHITECTURE.md)."""

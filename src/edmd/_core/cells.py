@@ -1,0 +1,169 @@
+"""Cell grid ("sectors", physics.md §1.4): binning, neighbour cells, face-crossing times.
+
+The grid is the tuple ``(head, nxt, cell, gi, gf)``: ``head[c]`` is the first particle of cell
+``c`` and ``nxt`` links the rest (singly linked, cells are small); ``cell[i]`` is the cell a
+particle is registered in; ``gi = [ncx, ncy, ncz]``; ``gf = [lx, ly, lz, 1/lx, 1/ly, 1/lz]``.
+The box spans ``[-L/2, L/2)`` on every axis. A periodic axis has at least three cells or
+exactly one (then the neighbour search does not look along it); an open axis any number.
+"""
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .predict import INF, gap_time
+
+
+def grid_shape(box, periodic, min_cell):
+    """Cells per axis for cell edges of at least ``min_cell`` (1 on an axis too short for 3)."""
+    nc = np.ones(3, np.int64)
+    for k in range(3):
+        if not np.isfinite(box[k]) or box[k] <= 0:
+            continue
+        n = int(math.floor(box[k] / min_cell))
+        if periodic[k] and n < 3:
+            n = 1
+        nc[k] = max(n, 1)
+    return nc
+
+
+def new_grid(n, box, nc):
+    """Allocate an empty grid for ``n`` particles with ``nc`` cells per axis."""
+    gi = np.asarray(nc, np.int64).copy()
+    gf = np.zeros(6)
+    for k in range(3):
+        length = box[k] if np.isfinite(box[k]) else 1.0
+        gf[k] = length / nc[k]
+        gf[3 + k] = 1.0 / gf[k]
+    return (
+        np.full(int(np.prod(nc)), -1, np.int32),
+        np.full(n, -1, np.int32),
+        np.zeros(n, np.int32),
+        gi,
+        gf,
+    )
+
+
+@njit(cache=True, inline="always")
+def _axis_cell(x, length, inv, nc):
+    if nc == 1:
+        return 0
+    c = int(math.floor((x + 0.5 * length) * inv))
+    if c < 0:
+        return 0
+    if c >= nc:
+        return nc - 1
+    return c
+
+
+@njit(cache=True, inline="always")
+def cell_of_point(x, y, z, box, grid):
+    gi = grid[3]
+    gf = grid[4]
+    cx = _axis_cell(x, box[0], gf[3], gi[0])
+    cy = _axis_cell(y, box[1], gf[4], gi[1])
+    cz = _axis_cell(z, box[2], gf[5], gi[2])
+    return (cx * gi[1] + cy) * gi[2] + cz
+
+
+@njit(cache=True, inline="always")
+def cell_insert(grid, i, c):
+    head, nxt, cell = grid[0], grid[1], grid[2]
+    nxt[i] = head[c]
+    head[c] = i
+    cell[i] = c
+
+
+@njit(cache=True, inline="always")
+def cell_remove(grid, i):
+    head, nxt, cell = grid[0], grid[1], grid[2]
+    c = cell[i]
+    k = head[c]
+    if k == i:
+        head[c] = nxt[i]
+        return
+    while k >= 0:
+        s = nxt[k]
+        if s == i:
+            nxt[k] = nxt[i]
+            return
+        k = s
+
+
+@njit(cache=True, inline="always")
+def _offsets(k, nc, axis, step):
+    """Offsets searched on axis ``k``: the crossing direction only on ``axis``, else -1..1."""
+    if k == axis:
+        return step, step
+    if nc == 1:
+        return 0, 0
+    return -1, 1
+
+
+@njit(cache=True, inline="always")
+def _shift(c, o, nc, periodic):
+    """Neighbour coordinate ``c + o`` on one axis, or ``-1`` beyond an open edge."""
+    c2 = c + o
+    if c2 < 0:
+        return c2 + nc if periodic else -1
+    if c2 >= nc:
+        return c2 - nc if periodic else -1
+    return c2
+
+
+@njit(cache=True, inline="always")
+def cell_block(grid, c, half, out, axis, step):
+    """Write cells around ``c`` into ``out`` (each once) and return their number.
+
+    ``axis = -1``: the full neighbourhood of ``c``, itself included. Otherwise the layer beyond
+    ``c`` in direction ``step`` (+1/-1) along ``axis``: after a crossing into ``c`` these are the
+    only cells whose particles were not candidates before (physics.md §1.4: the newly adjacent
+    layer of :math:`3^{d-1}` cells).
+    """
+    gi = grid[3]
+    nx, ny, nz = gi[0], gi[1], gi[2]
+    cz = c % nz
+    cy = (c // nz) % ny
+    cx = c // (nz * ny)
+    px, py, pz = half[0] < INF, half[1] < INF, half[2] < INF
+    lox, hix = _offsets(0, nx, axis, step)
+    loy, hiy = _offsets(1, ny, axis, step)
+    loz, hiz = _offsets(2, nz, axis, step)
+    n = 0
+    for ox in range(lox, hix + 1):
+        x2 = _shift(cx, ox, nx, px)
+        if x2 < 0:
+            continue
+        for oy in range(loy, hiy + 1):
+            y2 = _shift(cy, oy, ny, py)
+            if y2 < 0:
+                continue
+            for oz in range(loz, hiz + 1):
+                z2 = _shift(cz, oz, nz, pz)
+                if z2 < 0:
+                    continue
+                out[n] = (x2 * ny + y2) * nz + z2
+                n += 1
+    return n
+
+
+@njit(cache=True, inline="always")
+def crossing_time(x, v, g, c_axis, nc, length, cell_len, periodic):
+    """Time and face (0 lower, 1 upper) of the next crossing out of cell ``c_axis`` on one axis.
+
+    physics.md §1.4: both faces treated as planes of zero radius with the cancellation-free
+    gap roots of §1.3. Faces on the box edge of an open axis are not crossings (walls are).
+    """
+    if nc == 1:
+        return INF, 0
+    lo = -0.5 * length + c_axis * cell_len
+    t_up = INF
+    t_lo = INF
+    if periodic or c_axis < nc - 1:
+        t_up = gap_time(lo + cell_len - x, -v, -g)
+    if periodic or c_axis > 0:
+        t_lo = gap_time(x - lo, v, g)
+    if t_up <= t_lo:
+        return t_up, 1
+    return t_lo, 0

@@ -1,0 +1,79 @@
+"""Whole-system geometry helpers: overlap search and spatial ordering (compiled)."""
+
+import numpy as np
+from numba import njit
+
+from .cells import cell_block, cell_insert, cell_of_point
+from .predict import wrap_delta
+
+
+@njit(cache=True)
+def worst_overlap(pos, radius, box, half, grid, rel_tol):
+    """Return ``(i, j, distance)`` of the deepest overlap beyond ``rel_tol`` (``-1, -1, 0`` if none).
+
+    ``pos`` is ``(N, 3)``; ``grid`` must have cells of edge at least the largest contact distance.
+    """
+    n = pos.shape[0]
+    head, nxt = grid[0], grid[1]
+    head[:] = -1
+    for i in range(n):
+        cell_insert(grid, i, cell_of_point(pos[i, 0], pos[i, 1], pos[i, 2], box, grid))
+    cbuf = np.empty(27, np.int32)
+    bi, bj, worst, bd = -1, -1, 0.0, 0.0
+    for i in range(n):
+        nc = cell_block(grid, grid[2][i], half, cbuf, -1, 0)
+        for s in range(nc):
+            j = head[cbuf[s]]
+            while j >= 0:
+                if j > i:
+                    dx = wrap_delta(pos[i, 0] - pos[j, 0], box[0], half[0])
+                    dy = wrap_delta(pos[i, 1] - pos[j, 1], box[1], half[1])
+                    dz = wrap_delta(pos[i, 2] - pos[j, 2], box[2], half[2])
+                    sig = radius[i] + radius[j]
+                    d = np.sqrt(dx * dx + dy * dy + dz * dz)
+                    depth = 1.0 - d / sig
+                    if depth > rel_tol and depth > worst:
+                        bi, bj, worst, bd = i, j, depth, d
+                j = nxt[j]
+    return bi, bj, bd
+
+
+@njit(cache=True)
+def random_insert(radius, box, half, grid, pos, uniforms, start, dim):
+    """Sequentially place particles ``start, start+1, ...`` at random without overlap.
+
+    ``uniforms[p - start, a, :dim]`` are the uniform numbers of attempt ``a`` for particle ``p``;
+    particles ``< start`` are already in ``pos`` and in ``grid``. Returns the index of the first
+    particle that could not be placed in the attempts given (``len(radius)`` if all were).
+    """
+    n = radius.shape[0]
+    head, nxt = grid[0], grid[1]
+    cbuf = np.empty(27, np.int32)
+    for p in range(start, n):
+        u = uniforms[p - start]
+        ok = False
+        for a in range(u.shape[0]):
+            for k in range(3):
+                pos[p, k] = (u[a, k] - 0.5) * box[k] if k < dim else 0.0
+            c = cell_of_point(pos[p, 0], pos[p, 1], pos[p, 2], box, grid)
+            grid[2][p] = c
+            ok = True
+            nc = cell_block(grid, c, half, cbuf, -1, 0)
+            for s in range(nc):
+                j = head[cbuf[s]]
+                while j >= 0 and ok:
+                    dx = wrap_delta(pos[p, 0] - pos[j, 0], box[0], half[0])
+                    dy = wrap_delta(pos[p, 1] - pos[j, 1], box[1], half[1])
+                    dz = wrap_delta(pos[p, 2] - pos[j, 2], box[2], half[2])
+                    sig = radius[p] + radius[j]
+                    if dx * dx + dy * dy + dz * dz < sig * sig:
+                        ok = False
+                    j = nxt[j]
+                if not ok:
+                    break
+            if ok:
+                cell_insert(grid, p, c)
+                break
+        if not ok:
+            return p
+    return n

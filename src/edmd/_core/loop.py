@@ -1,0 +1,254 @@
+"""The event loop (Lubachevsky's scheme, physics.md §1.5) and whole-system set-up.
+
+Each particle holds two candidate events:
+
+* a **pair event** ``(pair_t, pair_j, pair_c)``: earliest predicted contact, the partner and
+  the partner's event counter at prediction time. It is valid iff ``count[pair_j] == pair_c``.
+  A stale one is kept as a placeholder: no other pair of that particle can be earlier, so when
+  it comes up the particle is simply re-predicted.
+* an **aux event** ``(aux_t, aux_k)``: a single-particle event (shell exit or cell crossing;
+  walls and eMD* B events use the same slot) that depends only on the particle's own flight.
+
+The calendar key of the particle is ``min(pair_t, aux_t)`` (aux first at equal times).
+Particles are streamed lazily: only those taking part in an event are advanced.
+
+Array bundles (tuples, no objects): ``part = (P, mass, omega, inertia, image, count)``,
+``ev = (pair_t, pair_j, pair_c, aux_t, aux_k)``, ``q`` (see :mod:`.queue`), ``grid`` (see
+:mod:`.cells`), ``lists`` (see :mod:`.nblist`), ``geo = (box, half, grav)``.
+"""
+
+import numpy as np
+from numba import njit
+
+from . import layout as L
+from .cells import cell_block, cell_insert, cell_of_point, cell_remove, crossing_time
+from .collide import collide_smooth
+from .nblist import build_lists, rebuild_list, shell_exit_time
+from .predict import INF, advance, pair_time
+from .queue import queue_top, queue_update
+
+_I32 = np.int32
+
+
+@njit(cache=True, inline="always")
+def _set_pair(ev, count, i, t, j):
+    ev[0][i] = t
+    ev[1][i] = j
+    ev[2][i] = count[j]
+
+
+@njit(cache=True)
+def _scan_cells(i, t, P, count, ev, grid, geo, cbuf, axis, step):
+    """Improve the pair event of ``i`` with the particles of a block of cells (see ``cell_block``)."""
+    box, half, grav = geo
+    head, nxt = grid[0], grid[1]
+    best = ev[0][i]
+    nc = cell_block(grid, grid[2][i], half, cbuf, axis, step)
+    for s in range(nc):
+        j = head[cbuf[s]]
+        while j >= 0:
+            if j != i:
+                tj = pair_time(P, i, j, t, box, half, grav)
+                if tj < best:
+                    best = tj
+                    _set_pair(ev, count, i, tj, j)
+            j = nxt[j]
+
+
+@njit(cache=True, inline="always")
+def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf):
+    """Full re-prediction of the earliest contact of ``i`` (neighbour list or 3^d cells)."""
+    box, half, grav = geo
+    ev[0][i] = INF
+    ev[1][i] = -1
+    if mode == L.NB_LIST:
+        nbl, nbl_n = lists[0], lists[1]
+        best = INF
+        for s in range(nbl_n[i]):
+            j = nbl[i, s]
+            tj = pair_time(P, i, j, t, box, half, grav)
+            if tj < best:
+                best = tj
+                _set_pair(ev, count, i, tj, j)
+    else:
+        _scan_cells(i, t, P, count, ev, grid, geo, cbuf, -1, 0)
+
+
+@njit(cache=True)
+def predict_aux(i, t, P, ev, grid, lists, geo, mode, fp):
+    """Earliest single-particle event of ``i``: shell exit (lists) or cell crossing (cells)."""
+    box, half, grav = geo
+    best = INF
+    kind = L.AUX_NONE
+    if mode == L.NB_LIST:
+        best = shell_exit_time(P, i, t, lists, box, half, grav, fp[L.FP_SKIN])
+        kind = L.AUX_SHELL
+    else:
+        gi, gf = grid[3], grid[4]
+        c = grid[2][i]
+        ncy, ncz = gi[1], gi[2]
+        coords = (c // (ncy * ncz), (c // ncz) % ncy, c % ncz)
+        dt = t - P[i, L.T]
+        for k in range(3):
+            v = P[i, L.VX + k] + grav[k] * dt
+            x = P[i, L.X + k] + P[i, L.VX + k] * dt + 0.5 * grav[k] * dt * dt
+            tk, face = crossing_time(x, v, grav[k], coords[k], gi[k], box[k], gf[k], half[k] < INF)
+            if tk < best:
+                best = tk
+                kind = L.AUX_CELL + 2 * k + face
+        best += t
+    ev[3][i] = best
+    ev[4][i] = kind
+
+
+@njit(cache=True, inline="always")
+def _requeue(q, ev, i):
+    a = ev[3][i]
+    p = ev[0][i]
+    queue_update(q, i, a if a <= p else p)
+
+
+@njit(cache=True, inline="always")
+def _repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, cbuf):
+    """Both candidate events of ``i`` after its flight changed, and its calendar key."""
+    predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
+    predict_aux(i, t, P, ev, grid, lists, geo, mode, fp)
+    _requeue(q, ev, i)
+
+
+@njit(cache=True)
+def _cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf):
+    """Move ``i`` into the neighbouring cell (by direction, never by flooring) and scan the new layer."""
+    box, half, grav = geo
+    gi = grid[3]
+    k = (kind - L.AUX_CELL) >> 1
+    step = 1 if (kind - L.AUX_CELL) & 1 else -1
+    c = grid[2][i]
+    ny, nz = gi[1], gi[2]
+    cx, cy, cz = c // (ny * nz), (c // nz) % ny, c % nz
+    ck = (cx, cy, cz)[k] + step
+    if ck == gi[k]:
+        ck = 0
+        P[i, L.X + k] -= box[k]
+        image[i, k] += 1
+    elif ck < 0:
+        ck = gi[k] - 1
+        P[i, L.X + k] += box[k]
+        image[i, k] -= 1
+    if k == 0:
+        cx = ck
+    elif k == 1:
+        cy = ck
+    else:
+        cz = ck
+    cell_remove(grid, i)
+    cell_insert(grid, i, (cx * ny + cy) * nz + cz)
+    _scan_cells(i, t, P, count, ev, grid, geo, cbuf, k, step)
+
+
+@njit(cache=True, inline="always")
+def _wrap_into_box(P, image, i, box, half):
+    for k in range(3):
+        if half[k] < INF:
+            x = P[i, L.X + k]
+            if x >= half[k]:
+                P[i, L.X + k] = x - box[k]
+                image[i, k] += 1
+            elif x < -half[k]:
+                P[i, L.X + k] = x + box[k]
+                image[i, k] -= 1
+
+
+@njit(cache=True)
+def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, t_stop, max_events):
+    """Process events in time order until ``t_stop`` (exclusive) or ``max_events``.
+
+    Returns a status code of :mod:`.layout` (``ST_*``); ``acc[A_NOW]`` holds the time of the
+    last processed event. The state is consistent at every return.
+    """
+    P, mass, omega, inertia, image, count = part
+    box, half, grav = geo
+    key = q[0]
+    mode = ip[L.IP_MODE]
+    log_cap = ip[L.IP_LOG_CAP]
+    e_n = fp[L.FP_EN]
+    cbuf = np.empty(27, _I32)
+    done = 0
+    while True:
+        i = queue_top(q)
+        if i < 0:
+            return L.ST_IDLE
+        t = key[i]
+        if t >= t_stop:
+            return L.ST_TIME
+        if done >= max_events:
+            return L.ST_EVENTS
+        done += 1
+        cnt[L.C_EVENTS] += 1
+        acc[L.A_NOW] = t
+        if ev[3][i] <= ev[0][i]:
+            kind = ev[4][i]
+            cnt[L.C_AUX] += 1
+            if kind == L.AUX_SHELL:
+                advance(P, i, t, grav)
+                _wrap_into_box(P, image, i, box, half)
+                cnt[L.C_REBUILD] += 1
+                if not rebuild_list(i, P, grid, lists, box, half, fp[L.FP_SKIN], cbuf):
+                    return L.ST_LIST_FULL
+                predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
+            else:
+                _cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf)
+            predict_aux(i, t, P, ev, grid, lists, geo, mode, fp)
+            _requeue(q, ev, i)
+            continue
+        j = ev[1][i]
+        if count[j] != ev[2][i]:
+            cnt[L.C_STALE] += 1
+            predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
+            _requeue(q, ev, i)
+            continue
+        if log_cap > 0 and cnt[L.C_LOG] >= log_cap:
+            cnt[L.C_EVENTS] -= 1
+            return L.ST_LOG_FULL
+        advance(P, i, t, grav)
+        advance(P, j, t, grav)
+        acc[L.A_KE_INT] += acc[L.A_KE] * (t - acc[L.A_LAST_T])
+        acc[L.A_LAST_T] = t
+        vn, vt = collide_smooth(P, mass, i, j, e_n, box, half, acc)
+        count[i] += 1
+        count[j] += 1
+        cnt[L.C_COLL] += 1
+        if log_cap > 0:
+            r = cnt[L.C_LOG]
+            clog[r, 0] = t
+            clog[r, 1] = i
+            clog[r, 2] = j
+            clog[r, 3] = vn
+            clog[r, 4] = vt
+            cnt[L.C_LOG] = r + 1
+        _repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, cbuf)
+        _repredict(j, t, P, count, ev, q, grid, lists, geo, mode, fp, cbuf)
+
+
+@njit(cache=True)
+def setup_events(part, ev, grid, lists, geo, fp, ip, t):
+    """Bin every particle (positions or list centres) and predict all events at time ``t``.
+
+    Returns ``False`` if a neighbour list ran out of capacity.
+    """
+    P, mass, omega, inertia, image, count = part
+    box, half, grav = geo
+    mode = ip[L.IP_MODE]
+    cbuf = np.empty(27, _I32)
+    n = P.shape[0]
+    if mode == L.NB_LIST:
+        if not build_lists(P, grid, lists, box, half, fp[L.FP_SKIN], cbuf):
+            return False
+    else:
+        grid[0][:] = -1
+        for i in range(n):
+            cell_insert(grid, i, cell_of_point(P[i, L.X], P[i, L.Y], P[i, L.Z], box, grid))
+    for i in range(n):
+        predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
+        predict_aux(i, t, P, ev, grid, lists, geo, mode, fp)
+    return True

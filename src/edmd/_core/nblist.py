@@ -1,0 +1,128 @@
+"""Neighbour lists with a shell, kept symmetric and rebuilt per particle.
+
+Every particle ``i`` owns a list centre :math:`\\mathbf c_i` (its position at its last rebuild)
+and may move at most :math:`\\delta = s/2` away from it (``s`` = skin); leaving that shell is an
+event. Invariant: ``j`` is in ``i``'s list (and ``i`` in ``j``'s) whenever
+:math:`|\\mathbf c_i - \\mathbf c_j| < \\sigma_{ij} + s`, so two particles that can touch while
+both are inside their shells are always listed. A rebuild moves only ``i``'s centre: ``i`` is
+removed from its old neighbours' lists and added to its new ones, found through a cell grid over
+the centres with cells of edge :math:`\\ge 2R_{\\max} + s`.
+
+``lists = (nbl, nbl_n, centre)``: ``nbl[i, :nbl_n[i]]`` are the neighbours of ``i``.
+"""
+
+import math
+
+from numba import njit
+
+from .cells import cell_block, cell_insert, cell_of_point, cell_remove
+from .layout import R, X, Y, Z
+from .predict import INF, flight, gap_time, sphere_exit_time, wrap_delta
+
+
+@njit(cache=True, inline="always")
+def _drop(nbl, nbl_n, owner, i):
+    """Remove ``i`` from the list of ``owner`` (swap with the last entry)."""
+    n = nbl_n[owner] - 1
+    for s in range(n + 1):
+        if nbl[owner, s] == i:
+            nbl[owner, s] = nbl[owner, n]
+            nbl_n[owner] = n
+            return
+
+
+@njit(cache=True, inline="always")
+def _link_neighbours(i, P, grid, lists, box, half, skin, cbuf, only_higher):
+    """Add every ``j`` whose centre is within ``sigma_ij + skin`` of ``c_i`` to both lists.
+
+    With ``only_higher`` only ``j > i`` is considered (initial build, each pair once).
+    Returns ``False`` when a list is full.
+    """
+    nbl, nbl_n, centre = lists
+    head, nxt = grid[0], grid[1]
+    cap = nbl.shape[1]
+    cx, cy, cz = centre[i, 0], centre[i, 1], centre[i, 2]
+    ri = P[i, R] + skin
+    nc = cell_block(grid, grid[2][i], half, cbuf, -1, 0)
+    for s in range(nc):
+        j = head[cbuf[s]]
+        while j >= 0:
+            if j != i and (j > i or not only_higher):
+                dx = wrap_delta(cx - centre[j, 0], box[0], half[0])
+                dy = wrap_delta(cy - centre[j, 1], box[1], half[1])
+                dz = wrap_delta(cz - centre[j, 2], box[2], half[2])
+                lim = ri + P[j, R]
+                if dx * dx + dy * dy + dz * dz < lim * lim:
+                    ni = nbl_n[i]
+                    nj = nbl_n[j]
+                    if ni >= cap or nj >= cap:
+                        return False
+                    nbl[i, ni] = j
+                    nbl_n[i] = ni + 1
+                    nbl[j, nj] = i
+                    nbl_n[j] = nj + 1
+            j = nxt[j]
+    return True
+
+
+@njit(cache=True, inline="always")
+def place_centre(i, P, grid, lists, box):
+    """Put ``i``'s list centre at its stored position and register it in the grid."""
+    centre = lists[2]
+    centre[i, 0] = P[i, X]
+    centre[i, 1] = P[i, Y]
+    centre[i, 2] = P[i, Z]
+    cell_insert(grid, i, cell_of_point(P[i, X], P[i, Y], P[i, Z], box, grid))
+
+
+@njit(cache=True)
+def rebuild_list(i, P, grid, lists, box, half, skin, cbuf):
+    """Re-centre the neighbour list of ``i`` at its stored position (streamed and wrapped by the caller)."""
+    nbl, nbl_n, centre = lists
+    for s in range(nbl_n[i]):
+        _drop(nbl, nbl_n, nbl[i, s], i)
+    nbl_n[i] = 0
+    cell_remove(grid, i)
+    place_centre(i, P, grid, lists, box)
+    return _link_neighbours(i, P, grid, lists, box, half, skin, cbuf, False)
+
+
+@njit(cache=True)
+def build_lists(P, grid, lists, box, half, skin, cbuf):
+    """Build all neighbour lists from scratch, centred at the stored positions."""
+    head = grid[0]
+    head[:] = -1
+    nbl_n = lists[1]
+    nbl_n[:] = 0
+    n = P.shape[0]
+    for i in range(n):
+        place_centre(i, P, grid, lists, box)
+    for i in range(n):
+        if not _link_neighbours(i, P, grid, lists, box, half, skin, cbuf, True):
+            return False
+    return True
+
+
+@njit(cache=True, inline="always")
+def shell_exit_time(P, i, t, lists, box, half, grav, skin):
+    """Time at which ``i`` leaves its shell: the ball of radius ``skin/2`` around its centre.
+
+    Without gravity the exact exit from the ball (quadratic); with gravity the exit from the
+    inscribed cube of half-edge :math:`s/(2\sqrt3)`, whose faces are the parabolic gap roots of
+    physics.md §1.3 (the ball test would be a quartic).
+    """
+    centre = lists[2]
+    x, y, z, vx, vy, vz = flight(P, i, t, grav)
+    dx = wrap_delta(x - centre[i, 0], box[0], half[0])
+    dy = wrap_delta(y - centre[i, 1], box[1], half[1])
+    dz = wrap_delta(z - centre[i, 2], box[2], half[2])
+    if grav[3] == 0.0:
+        return t + sphere_exit_time(dx, dy, dz, vx, vy, vz, 0.5 * skin)
+    h = 0.5 * skin / SQRT3
+    best = INF
+    for d, v, g in ((dx, vx, grav[0]), (dy, vy, grav[1]), (dz, vz, grav[2])):
+        best = min(best, gap_time(h - d, -v, -g), gap_time(h + d, v, g))
+    return t + best
+
+
+SQRT3 = math.sqrt(3.0)

@@ -1,0 +1,279 @@
+"""The engine: owns the compiled-core arrays of one system and drives :func:`run_events`.
+
+Users normally go through :class:`edmd.Simulation`; the engine is the thin layer that turns a
+:class:`~edmd.state.State` into arrays, runs the event loop in segments and answers with
+exact snapshots. Times inside the core are *local* (relative to ``t_origin``); a **resync**
+streams every particle to the current time, re-bases the clock to zero, re-orders particles
+spatially, and rebuilds neighbour structures and the calendar. Resyncs happen only at
+deterministic points (start, every ``resync_every`` events, list growth), so a run split into
+several :meth:`advance` calls is bit-for-bit the run done in one.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from ._core import layout as L
+from ._core.cells import grid_shape, new_grid
+from ._core.loop import run_events, setup_events
+from ._core.queue import calendar_shape, new_queue, queue_build
+from ._core.snapshot import kinetic_energy_at, stream_all
+from .state import State, StateError
+
+
+@dataclasses.dataclass
+class EngineOptions:
+    """Tuning knobs of the event engine (all have sensible defaults).
+
+    Attributes:
+        neighbours: ``"list"`` (neighbour lists with a shell; best for dense systems),
+            ``"cells"`` (cell grid with crossing events; best for dilute systems) or ``"auto"``
+            (lists at packing fraction >= ``auto_threshold``).
+        skin: list shell thickness in units of the mean diameter (lists only): pairs whose
+            list centres are closer than ``sigma_ij + skin`` are neighbours.
+        resync_every: events between two maintenance resyncs, per particle.
+        events_per_bucket: target occupation of a calendar bucket.
+        auto_threshold: packing fraction above which ``"auto"`` picks lists.
+    """
+
+    neighbours: str = "auto"
+    skin: float = 0.5
+    resync_every: float = 50.0
+    events_per_bucket: float = 8.0
+    auto_threshold: float = 0.2
+
+    def __post_init__(self):
+        if self.neighbours not in ("auto", "list", "cells"):
+            raise ValueError(f"neighbours must be 'auto', 'list' or 'cells', got {self.neighbours!r}")
+        if not self.skin > 0:
+            raise ValueError(f"skin must be positive, got {self.skin}")
+        if not self.resync_every > 0:
+            raise ValueError(f"resync_every must be positive, got {self.resync_every}")
+        if not self.events_per_bucket > 0:
+            raise ValueError(f"events_per_bucket must be positive, got {self.events_per_bucket}")
+
+
+class Engine:
+    """Compiled-core arrays of one system (internal; see :class:`edmd.Simulation`)."""
+
+    def __init__(self, state: State, options: EngineOptions | None = None, e_n: float = 1.0, gravity=None):
+        self.options = options or EngineOptions()
+        self.dim = state.dim
+        self.n = state.n
+        self.periodic = state.periodic.copy()
+        self.box_user = state.box.copy()
+        self.box, self.half = state.geometry()
+        self.grav = np.zeros(4)
+        if gravity is not None:
+            g = np.asarray(gravity, float)
+            if g.shape != (self.dim,) or not np.all(np.isfinite(g)):
+                raise ValueError(f"gravity must be {self.dim} finite numbers, got {gravity!r}")
+            self.grav[: self.dim] = g
+            self.grav[3] = float(np.any(g != 0))
+        self.fp = np.zeros(L.N_FP)
+        self.ip = np.zeros(L.N_IP, np.int64)
+        self.fp[L.FP_EN] = e_n
+        self.acc = np.zeros(L.N_ACC)
+        self.cnt = np.zeros(L.N_COUNTERS, np.int64)
+        self.clog = np.zeros((0, 5))
+        self.collision_log: list[np.ndarray] | None = None
+        self.list_capacity = 0
+        self._choose_neighbours(state)
+        self.load(state)
+
+    # ------------------------------------------------------------------ set-up
+    def _choose_neighbours(self, state: State):
+        opt = self.options
+        mode = opt.neighbours
+        if mode == "auto":
+            mode = "list" if state.packing_fraction >= opt.auto_threshold else "cells"
+        sigma_max = 2.0 * float(state.radius.max())
+        periodic_len = self.box[: self.dim][self.periodic]
+        if mode == "cells":
+            short = periodic_len[periodic_len < 4.0 * sigma_max]
+            if short.size:
+                if opt.neighbours == "cells":
+                    raise StateError(
+                        f"neighbours='cells' needs periodic box lengths >= 4 x the largest contact distance "
+                        f"({4 * sigma_max:g}), got {short.min():g}; use neighbours='list' or a larger box"
+                    )
+                mode = "list"
+        skin = opt.skin * 2.0 * float(state.radius.mean())
+        if mode == "list" and periodic_len.size:
+            limit = 0.25 * (0.5 * periodic_len.min() - sigma_max) * 2.0
+            if limit <= 0:
+                raise StateError(
+                    f"periodic box length {periodic_len.min():g} must exceed twice the largest contact "
+                    f"distance ({2 * sigma_max:g})"
+                )
+            skin = min(skin, limit)
+        self.mode = mode
+        self.ip[L.IP_MODE] = L.NB_LIST if mode == "list" else L.NB_CELLS
+        self.fp[L.FP_SKIN] = skin
+        cell_min = sigma_max + (skin if mode == "list" else 0.0)
+        self.grid_cells = grid_shape(self.box, np.r_[self.periodic, [False] * (3 - self.dim)], cell_min)
+        if mode == "list":
+            n_density = state.n / state.volume
+            reach = sigma_max + skin
+            ball = (4.0 / 3.0 * math.pi * reach**3) if self.dim == 3 else (math.pi * reach**2)
+            self.list_capacity = max(self.list_capacity, int(1.6 * n_density * ball) + 8)
+
+    def load(self, state: State):
+        """(Re)build every array from ``state``: particles are spatially sorted internally."""
+        if state.n != self.n or state.dim != self.dim:
+            raise StateError("a loaded state must have the same number of particles and dimension")
+        self.t_origin = float(state.time)
+        n = self.n
+        pos = state.points
+        order = self._spatial_order(pos)
+        self.tag = order.astype(np.int64)
+        P = np.zeros((n, L.ROW))
+        P[:, : self.dim] = state.position[order]
+        P[:, 3 : 3 + self.dim] = state.velocity[order]
+        P[:, L.R] = state.radius[order]
+        omega = np.zeros((n, 3))
+        if self.dim == 3:
+            omega[:] = state.angular_velocity[order]
+        else:
+            omega[:, 2] = state.angular_velocity[order]
+        image = np.zeros((n, 3), np.int32)
+        image[:, : self.dim] = state.image[order]
+        self.part = (P, state.mass[order].copy(), omega, state.inertia[order].copy(), image, np.zeros(n, np.int32))
+        self.ev = (
+            np.full(n, np.inf),
+            np.full(n, -1, np.int32),
+            np.zeros(n, np.int32),
+            np.full(n, np.inf),
+            np.zeros(n, np.int32),
+        )
+        self._rebuild()
+
+    def _spatial_order(self, pos):
+        """Deterministic spatial sort (cell index, then original index) for memory locality."""
+        nc = self.grid_cells
+        c = np.zeros(len(pos), np.int64)
+        for k in range(3):
+            if nc[k] > 1:
+                ck = np.floor((pos[:, k] + 0.5 * self.box[k]) / (self.box[k] / nc[k])).astype(np.int64)
+                c = c * nc[k] + np.clip(ck, 0, nc[k] - 1)
+        return np.lexsort((np.arange(len(pos)), c))
+
+    def _rebuild(self):
+        """Bin, build neighbour lists and the calendar for particles all at local time 0."""
+        n = self.n
+        geo = (self.box, self.half, self.grav)
+        while True:
+            self.grid = new_grid(n, self.box, self.grid_cells)
+            cap = max(self.list_capacity, 1) if self.mode == "list" else 1
+            nl = n if self.mode == "list" else 1
+            self.lists = (np.zeros((nl, cap), np.int32), np.zeros(nl, np.int32), np.zeros((nl, 3)))
+            if setup_events(self.part, self.ev, self.grid, self.lists, geo, self.fp, self.ip, 0.0):
+                break
+            self.list_capacity = int(self.list_capacity * 1.5) + 4
+        keys = np.minimum(self.ev[0], self.ev[3])
+        width, nb = calendar_shape(keys, 0.0, self.options.events_per_bucket)
+        self.q = new_queue(n, nb)
+        queue_build(self.q, keys, 0.0, width, nb)
+        self.acc[L.A_NOW] = 0.0
+        self.acc[L.A_LAST_T] = 0.0
+        self.acc[L.A_KE] = kinetic_energy_at(self.part[0], self.part[1], 0.0, self.grav)
+        self.events_at_sync = int(self.cnt[L.C_EVENTS])
+
+    # ------------------------------------------------------------------ running
+    @property
+    def now(self) -> float:
+        """Absolute time of the last processed event (or of the last resync)."""
+        return self.t_origin + float(self.acc[L.A_NOW])
+
+    def advance(self, t_stop: float, max_events: int | float = math.inf) -> int:
+        """Process every event before absolute time ``t_stop``, at most ``max_events`` of them.
+
+        Returns the status code of the last loop call (``ST_TIME``, ``ST_EVENTS`` or ``ST_IDLE``).
+        """
+        geo = (self.box, self.half, self.grav)
+        budget = max_events
+        interval = max(int(self.options.resync_every * self.n), 1)
+        while True:
+            if budget <= 0:
+                return L.ST_EVENTS
+            if int(self.cnt[L.C_EVENTS]) - self.events_at_sync >= interval:
+                self.resync()
+            chunk = int(min(budget, interval - (int(self.cnt[L.C_EVENTS]) - self.events_at_sync)))
+            before = int(self.cnt[L.C_EVENTS])
+            status = run_events(
+                self.part, self.ev, self.q, self.grid, self.lists, geo, self.fp, self.ip,
+                self.acc, self.cnt, self.clog, t_stop - self.t_origin, chunk,
+            )  # fmt: skip
+            budget -= int(self.cnt[L.C_EVENTS]) - before
+            if status == L.ST_LOG_FULL:
+                self._flush_log()
+            elif status == L.ST_LIST_FULL:
+                self.list_capacity = int(self.list_capacity * 1.5) + 4
+                self.resync()
+            elif status != L.ST_EVENTS:
+                return status
+
+    def resync(self):
+        """Stream everything to the current time, re-base the clock and rebuild (deterministic)."""
+        self._flush_log()
+        self.load(self.snapshot(self.now))
+
+    # ------------------------------------------------------------------ observation
+    def stream(self, t: float):
+        """Internal-order positions (wrapped), velocities and images at absolute time ``t``."""
+        pos, vel, image = stream_all(self.part[0], self.part[4], t - self.t_origin, self.box, self.half, self.grav)
+        return pos, vel, image
+
+    def snapshot(self, t: float | None = None) -> State:
+        """The exact state at absolute time ``t`` (default: now), particles in user order."""
+        t = self.now if t is None else t
+        pos, vel, image = self.stream(t)
+        inv = np.empty(self.n, np.int64)
+        inv[self.tag] = np.arange(self.n)
+        d = self.dim
+        P, mass, omega, inertia = self.part[0], self.part[1], self.part[2], self.part[3]
+        spin = omega[inv] if d == 3 else omega[inv, 2]
+        return State(
+            position=pos[inv, :d],
+            velocity=vel[inv, :d],
+            radius=P[inv, L.R],
+            mass=mass[inv],
+            box=self.box_user,
+            time=t,
+            angular_velocity=spin,
+            inertia=inertia[inv],
+            image=image[inv, :d],
+            periodic=self.periodic,
+            check_overlaps=False,
+        )
+
+    def kinetic_integral(self, t: float) -> float:
+        """Time integral of the kinetic energy since the last resync, up to absolute ``t``."""
+        return float(self.acc[L.A_KE_INT] + self.acc[L.A_KE] * (t - self.t_origin - self.acc[L.A_LAST_T]))
+
+    # ------------------------------------------------------------------ collision log
+    def enable_log(self, capacity: int = 65536):
+        """Record every collision as ``(time, i, j, v_n, v_t)`` with user indices."""
+        self.clog = np.zeros((capacity, 5))
+        self.ip[L.IP_LOG_CAP] = capacity
+        self.collision_log = []
+
+    def _flush_log(self):
+        k = int(self.cnt[L.C_LOG])
+        if k and self.collision_log is not None:
+            rows = self.clog[:k].copy()
+            rows[:, 0] += self.t_origin
+            rows[:, 1] = self.tag[rows[:, 1].astype(np.int64)]
+            rows[:, 2] = self.tag[rows[:, 2].astype(np.int64)]
+            self.collision_log.append(rows)
+        self.cnt[L.C_LOG] = 0
+
+    def take_log(self) -> np.ndarray:
+        """All collisions recorded since the last call, ``(k, 5)``."""
+        self._flush_log()
+        out = np.concatenate(self.collision_log) if self.collision_log else np.zeros((0, 5))
+        self.collision_log = [] if self.collision_log is not None else None
+        return out

@@ -1,0 +1,262 @@
+"""Initial states: lattices, random insertion, radius distributions, Maxwell–Boltzmann velocities.
+
+Everything is reproducible from a seed (``numpy.random.default_rng``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from ._core.cells import grid_shape, new_grid
+from ._core.geometry import random_insert
+from .state import State, StateError
+
+LATTICES = {2: ("hex", "square"), 3: ("fcc", "sc")}
+#: closest packing fraction each lattice reaches with touching spheres
+LATTICE_MAX = {"hex": math.pi / (2 * math.sqrt(3)), "square": math.pi / 4, "fcc": math.pi / (3 * math.sqrt(2)), "sc": math.pi / 6}
+
+
+def radii(n: int, distribution: float | dict, rng: np.random.Generator | None = None) -> np.ndarray:
+    """Draw ``n`` radii.
+
+    ``distribution`` is a number (monodisperse) or a dict with ``kind``:
+
+    * ``{"kind": "uniform", "min": a, "max": b}``
+    * ``{"kind": "normal", "mean": m, "std": s}`` (truncated at ``mean ± 3 std``, positive)
+    * ``{"kind": "lognormal", "mean": m, "std": s}`` (mean and std of the radius itself)
+    * ``{"kind": "discrete", "values": [r1, r2, ...], "fractions": [f1, f2, ...]}`` (exact counts)
+
+    Example:
+        >>> radii(4, {"kind": "discrete", "values": [0.5, 0.7], "fractions": [0.5, 0.5]}).tolist()
+        [0.5, 0.5, 0.7, 0.7]
+    """
+    rng = rng or np.random.default_rng(0)
+    if isinstance(distribution, (int, float)):
+        if not distribution > 0:
+            raise StateError(f"radius must be positive, got {distribution}")
+        return np.full(n, float(distribution))
+    d = dict(distribution)
+    kind = d.pop("kind", None)
+    try:
+        if kind == "uniform":
+            lo, hi = float(d.pop("min")), float(d.pop("max"))
+            if not 0 < lo <= hi:
+                raise StateError(f"uniform radii need 0 < min <= max, got min={lo}, max={hi}")
+            out = rng.uniform(lo, hi, n)
+        elif kind in ("normal", "lognormal"):
+            mean, std = float(d.pop("mean")), float(d.pop("std"))
+            if not (mean > 0 and std >= 0):
+                raise StateError(f"{kind} radii need mean > 0 and std >= 0, got mean={mean}, std={std}")
+            if kind == "normal":
+                out = np.clip(rng.normal(mean, std, n), max(mean - 3 * std, 1e-3 * mean), mean + 3 * std)
+            else:
+                s2 = math.log(1 + (std / mean) ** 2)
+                out = rng.lognormal(math.log(mean) - 0.5 * s2, math.sqrt(s2), n)
+        elif kind == "discrete":
+            values = np.asarray(d.pop("values"), float)
+            fr = np.asarray(d.pop("fractions", np.ones(len(values))), float)
+            if values.size == 0 or np.any(values <= 0) or fr.shape != values.shape or np.any(fr < 0) or fr.sum() <= 0:
+                raise StateError("discrete radii need positive values and as many non-negative fractions")
+            counts = np.floor(fr / fr.sum() * n).astype(int)
+            counts[np.argmax(fr)] += n - counts.sum()
+            out = np.repeat(values, counts)
+        else:
+            raise StateError(f"unknown radius distribution kind {kind!r} (uniform, normal, lognormal, discrete)")
+    except KeyError as exc:
+        raise StateError(f"radius distribution {kind!r} needs the key {exc.args[0]!r}") from None
+    if d:
+        raise StateError(f"unknown keys for radius distribution {kind!r}: {sorted(d)}")
+    return out
+
+
+def _masses(r, dim, mass, density):
+    if density is not None:
+        if not density > 0:
+            raise StateError(f"density must be positive, got {density}")
+        vol = 4.0 / 3.0 * np.pi * r**3 if dim == 3 else np.pi * r**2
+        return density * vol
+    if not np.all(np.asarray(mass) > 0):
+        raise StateError(f"mass must be positive, got {mass}")
+    return np.broadcast_to(np.asarray(mass, float), r.shape).copy()
+
+
+def _box_for(n_particle_volume, packing_fraction, dim, aspect):
+    if not 0 < packing_fraction < 1:
+        raise StateError(f"packing fraction must be in (0, 1), got {packing_fraction}")
+    volume = n_particle_volume / packing_fraction
+    aspect = np.ones(dim) if aspect is None else np.asarray(aspect, float)
+    if aspect.shape != (dim,) or np.any(aspect <= 0):
+        raise StateError(f"aspect must be {dim} positive numbers, got {aspect}")
+    return aspect * (volume / np.prod(aspect)) ** (1.0 / dim)
+
+
+def lattice_sites(kind: str, counts: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+    """Sites of a lattice with ``counts`` unit cells per axis, in units of the cell edges.
+
+    Returns ``(sites, cell)``: ``sites`` ``(M, d)`` in ``[0, counts)`` and the unit-cell
+    aspect ``cell`` (``(1, sqrt(3))`` for the rectangular cell of the hexagonal lattice).
+    """
+    basis = {
+        "sc": ([[0, 0, 0]], [1, 1, 1]),
+        "fcc": ([[0, 0, 0], [0.5, 0.5, 0], [0.5, 0, 0.5], [0, 0.5, 0.5]], [1, 1, 1]),
+        "square": ([[0, 0]], [1, 1]),
+        "hex": ([[0, 0], [0.5, 0.5]], [1, math.sqrt(3)]),
+    }
+    if kind not in basis:
+        raise StateError(f"unknown lattice {kind!r}; choose from {sorted(basis)}")
+    b, cell = basis[kind]
+    b = np.asarray(b, float)
+    grids = np.meshgrid(*[np.arange(c) for c in counts], indexing="ij")
+    origins = np.stack([g.ravel() for g in grids], axis=1).astype(float)
+    sites = (origins[:, None, :] + b[None, :, :]).reshape(-1, len(counts))
+    return sites, np.asarray(cell, float)
+
+
+def lattice(
+    n: int,
+    packing_fraction: float,
+    dim: int = 3,
+    kind: str | None = None,
+    radius: float | dict = 0.5,
+    mass: float = 1.0,
+    density: float | None = None,
+    seed: int = 0,
+) -> State:
+    """Particles on a lattice (fcc/sc in 3D, hex/square in 2D) in a periodic box, at rest.
+
+    The box is as cubic as the lattice allows and holds the smallest lattice with at least
+    ``n`` sites; surplus sites are left empty at random. Polydisperse radii are placed at random
+    on the sites and must fit: the nearest-neighbour distance must exceed the largest diameter.
+
+    Example:
+        >>> s = lattice(32, 0.3, dim=3, kind="fcc")
+        >>> s.n, round(s.packing_fraction, 12)
+        (32, 0.3)
+    """
+    if dim not in (2, 3):
+        raise StateError(f"dim must be 2 or 3, got {dim}")
+    if n < 1:
+        raise StateError(f"n must be positive, got {n}")
+    kind = kind or LATTICES[dim][0]
+    if kind not in LATTICES[dim]:
+        raise StateError(f"lattice {kind!r} is not a {dim}D lattice; choose from {LATTICES[dim]}")
+    rng = np.random.default_rng(seed)
+    r = radii(n, radius, rng)
+    m = _masses(r, dim, mass, density)
+    v_particles = float(np.sum(4.0 / 3.0 * np.pi * r**3 if dim == 3 else np.pi * r**2))
+    per_cell = {"sc": 1, "fcc": 4, "square": 1, "hex": 2}[kind]
+    _, cell = lattice_sites(kind, [1] * dim)
+    cells_needed = math.ceil(n / per_cell)
+    # unit cells per axis: as close to a cubic box as the cell aspect allows
+    base = (cells_needed * np.prod(cell)) ** (1.0 / dim) / cell
+    counts = np.maximum(np.floor(base).astype(int), 1)
+    while np.prod(counts) < cells_needed:
+        k = int(np.argmin(counts * cell))
+        counts[k] += 1
+    sites, cell = lattice_sites(kind, counts)
+    volume = v_particles / packing_fraction if 0 < packing_fraction < 1 else -1.0
+    if volume <= 0:
+        raise StateError(f"packing fraction must be in (0, 1), got {packing_fraction}")
+    a = (volume / np.prod(counts * cell)) ** (1.0 / dim)
+    box = counts * cell * a
+    pos = sites * cell * a
+    nn = a * {"sc": 1.0, "fcc": 1 / math.sqrt(2), "square": 1.0, "hex": 1.0}[kind]
+    if nn < 2.0 * r.max() * (1 + 1e-12):
+        eta_max = packing_fraction * (nn / (2.0 * r.max())) ** dim
+        raise StateError(
+            f"packing fraction {packing_fraction} cannot be built on a {kind} lattice with these radii: "
+            f"neighbouring sites are {nn:.6g} apart but the largest diameter is {2 * r.max():.6g} "
+            f"(at most {eta_max:.4f} here)"
+        )
+    chosen = np.sort(rng.choice(len(sites), size=n, replace=False)) if len(sites) > n else np.arange(n)
+    pos = pos[chosen] - 0.5 * box + 0.25 * a * cell
+    pos = (pos + 0.5 * box) % box - 0.5 * box
+    r = rng.permutation(r) if np.ptp(r) > 0 else r
+    m = _masses(r, dim, mass, density)
+    return State(position=pos, velocity=np.zeros_like(pos), radius=r, mass=m, box=box)
+
+
+def random_packing(
+    n: int,
+    packing_fraction: float,
+    dim: int = 3,
+    radius: float | dict = 0.5,
+    mass: float = 1.0,
+    density: float | None = None,
+    seed: int = 0,
+    aspect: Sequence[float] | None = None,
+    max_attempts: int = 1000,
+) -> State:
+    """Random sequential insertion without overlap (low and moderate density), at rest.
+
+    Largest particles are inserted first. Fails with a clear error if a particle cannot be
+    placed in ``max_attempts`` tries (random insertion jams near eta ~ 0.38 in 3D, 0.55 in 2D).
+
+    Example:
+        >>> s = random_packing(100, 0.1, dim=2, seed=3)
+        >>> s.overlapping_pair() is None
+        True
+    """
+    if dim not in (2, 3):
+        raise StateError(f"dim must be 2 or 3, got {dim}")
+    if n < 1:
+        raise StateError(f"n must be positive, got {n}")
+    rng = np.random.default_rng(seed)
+    r = radii(n, radius, rng)
+    vol = 4.0 / 3.0 * np.pi * r**3 if dim == 3 else np.pi * r**2
+    box = _box_for(float(vol.sum()), packing_fraction, dim, aspect)
+    order = np.argsort(-r, kind="stable")
+    r = r[order]
+    box3 = np.ones(3)
+    box3[:dim] = box
+    half = np.full(3, np.inf)
+    half[:dim] = 0.5 * box
+    nc = grid_shape(box3, np.r_[np.ones(dim, bool), np.zeros(3 - dim, bool)], 2.0 * r.max())
+    grid = new_grid(n, box3, nc)
+    pos3 = np.zeros((n, 3))
+    placed, attempts, batch = 0, 0, 16
+    while placed < n and attempts < max_attempts:
+        uniforms = rng.random((n - placed, batch, 3))
+        first_failed = random_insert(r, box3, half, grid, pos3, uniforms, placed, dim)
+        attempts = attempts + batch if first_failed == placed else batch
+        placed = first_failed
+    if placed < n:
+        raise StateError(
+            f"random insertion failed at particle {placed} of {n} after {max_attempts} attempts: packing "
+            f"fraction {packing_fraction} is too high for random insertion; use a lattice start"
+        )
+    m = _masses(r, dim, mass, density)
+    return State(position=pos3[:, :dim], velocity=np.zeros((n, dim)), radius=r, mass=m, box=box)
+
+
+def maxwell_boltzmann(state: State, kT: float, seed: int = 0, spin: bool = False) -> State:
+    r"""Give ``state`` Maxwell–Boltzmann velocities at temperature ``kT`` with zero total momentum.
+
+    Velocities are drawn with variance :math:`kT/m_i` per component, the centre-of-mass velocity
+    is removed and the result rescaled so that the temperature is exactly ``kT``. With ``spin``
+    angular velocities are drawn with variance :math:`kT/I_i` as well (rotational temperature
+    exactly ``kT``). Returns a new state.
+
+    Example:
+        >>> s = maxwell_boltzmann(lattice(500, 0.2), kT=2.0, seed=1)
+        >>> round(s.temperature(), 12), bool(np.allclose(s.momentum(), 0, atol=1e-12))
+        (2.0, True)
+    """
+    if not kT >= 0 or not math.isfinite(kT):
+        raise StateError(f"kT must be a non-negative number, got {kT}")
+    rng = np.random.default_rng(seed)
+    out = state.copy()
+    v = rng.normal(size=(state.n, state.dim)) * np.sqrt(kT / state.mass)[:, None]
+    v -= (state.mass[:, None] * v).sum(axis=0) / state.mass.sum()
+    t = float(np.sum(state.mass[:, None] * v**2) / (state.dim * state.n))
+    out.velocity = v * math.sqrt(kT / t) if t > 0 else v
+    if spin:
+        shape = (state.n, 3) if state.dim == 3 else (state.n,)
+        w = rng.normal(size=shape) * np.sqrt(kT / state.inertia).reshape((-1,) + (1,) * (len(shape) - 1))
+        dof = 3 if state.dim == 3 else 1
+        tr = float(np.sum(state.inertia * (w**2 if w.ndim == 1 else (w**2).sum(axis=1))) / (dof * state.n))
+        out.angular_velocity = w * math.sqrt(kT / tr) if tr > 0 else w
+    return out

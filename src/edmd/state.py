@@ -1,0 +1,230 @@
+"""The particle state: a structure of float64 arrays, validated on construction."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from ._core.cells import grid_shape, new_grid
+from ._core.geometry import worst_overlap
+
+#: relative overlap tolerated as round-off (contacts from a running simulation sit at |r| = sigma)
+OVERLAP_TOLERANCE = 1e-9
+
+
+class StateError(ValueError):
+    """An inconsistent or unphysical particle state (the message names the problem)."""
+
+
+def _as_float(name, value, shape):
+    arr = np.array(value, dtype=np.float64, copy=True)
+    if arr.shape != shape:
+        raise StateError(f"{name} must have shape {shape}, got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        bad = np.argwhere(~np.isfinite(arr))[0]
+        raise StateError(f"{name} is not finite (NaN or inf) at index {tuple(int(b) for b in bad)}")
+    return arr
+
+
+def default_inertia(mass, radius, dim):
+    r"""Moment of inertia of solid spheres (:math:`\tfrac25 mR^2`, 3D) or disks (:math:`\tfrac12 mR^2`, 2D).
+
+    Example:
+        >>> float(default_inertia(np.array([1.0]), np.array([0.5]), 3)[0])
+        0.1
+    """
+    q = 0.4 if dim == 3 else 0.5
+    return q * np.asarray(mass) * np.asarray(radius) ** 2
+
+
+@dataclasses.dataclass(eq=False)
+class State:
+    r"""Positions, velocities, spins, radii and masses of N spheres (3D) or disks (2D) in a box.
+
+    The box spans :math:`[-L_k/2, L_k/2)` on each axis (HOOMD/freud convention); ``periodic``
+    marks periodic axes (the others are closed by walls). Two-dimensional states have ``d = 2``
+    columns; the angular velocity of a disk is the scalar :math:`\omega_z`.
+
+    Attributes:
+        position: ``(N, d)`` positions, wrapped into the box.
+        velocity: ``(N, d)`` velocities.
+        radius: ``(N,)`` radii (> 0).
+        mass: ``(N,)`` masses (> 0).
+        box: ``(d,)`` box lengths.
+        time: simulation time of this state.
+        angular_velocity: ``(N, 3)`` in 3D, ``(N,)`` in 2D (zeros by default).
+        inertia: ``(N,)`` moments of inertia (solid spheres/disks by default).
+        image: ``(N, d)`` integer periodic images (for unwrapped positions).
+        periodic: ``(d,)`` periodic flags (all ``True`` by default).
+
+    Example:
+        >>> s = State(position=[[0.0, 0.0], [1.5, 0.0]], velocity=[[1.0, 0.0], [0.0, 0.0]],
+        ...           radius=[0.5, 0.5], mass=[1.0, 1.0], box=[10.0, 10.0])
+        >>> s.dim, s.n, round(s.kinetic_energy(), 3)
+        (2, 2, 0.5)
+    """
+
+    position: np.ndarray
+    velocity: np.ndarray
+    radius: np.ndarray
+    mass: np.ndarray
+    box: np.ndarray
+    time: float = 0.0
+    angular_velocity: np.ndarray | None = None
+    inertia: np.ndarray | None = None
+    image: np.ndarray | None = None
+    periodic: np.ndarray | None = None
+    check_overlaps: dataclasses.InitVar[bool] = True
+
+    def __post_init__(self, check_overlaps: bool = True):
+        pos = np.array(self.position, dtype=np.float64)
+        if pos.ndim != 2 or pos.shape[1] not in (2, 3):
+            raise StateError(f"position must have shape (N, 2) or (N, 3), got {pos.shape}")
+        n, d = pos.shape
+        if n < 1:
+            raise StateError("a state needs at least one particle")
+        self.position = _as_float("position", pos, (n, d))
+        self.velocity = _as_float("velocity", self.velocity, (n, d))
+        self.radius = _as_float("radius", np.broadcast_to(np.asarray(self.radius, float), (n,)), (n,))
+        self.mass = _as_float("mass", np.broadcast_to(np.asarray(self.mass, float), (n,)), (n,))
+        self.box = _as_float("box", self.box, (d,))
+        self.time = float(self.time)
+        if not math.isfinite(self.time):
+            raise StateError("time is not finite")
+        spin_shape = (n, 3) if d == 3 else (n,)
+        self.angular_velocity = _as_float(
+            "angular_velocity",
+            np.zeros(spin_shape) if self.angular_velocity is None else self.angular_velocity,
+            spin_shape,
+        )
+        inertia = default_inertia(self.mass, self.radius, d) if self.inertia is None else self.inertia
+        self.inertia = _as_float("inertia", np.broadcast_to(np.asarray(inertia, float), (n,)), (n,))
+        image = np.zeros((n, d), np.int64) if self.image is None else np.asarray(self.image)
+        if image.shape != (n, d) or not np.issubdtype(image.dtype, np.integer):
+            raise StateError(f"image must be integers of shape {(n, d)}, got {image.dtype} {image.shape}")
+        self.image = image.astype(np.int64, copy=True)
+        periodic = np.ones(d, bool) if self.periodic is None else np.asarray(self.periodic, bool)
+        if periodic.shape != (d,):
+            raise StateError(f"periodic must have shape {(d,)}, got {periodic.shape}")
+        self.periodic = periodic.copy()
+        self._check_values()
+        if check_overlaps:
+            self.check_no_overlap()
+
+    # ------------------------------------------------------------------ checks
+    def _check_values(self):
+        for name in ("radius", "mass", "inertia"):
+            arr = getattr(self, name)
+            bad = np.flatnonzero(arr <= 0.0)
+            if bad.size:
+                raise StateError(f"{name} must be positive: particle {bad[0]} has {name} {arr[bad[0]]!r}")
+        if np.any(self.box <= 0.0):
+            raise StateError(f"box lengths must be positive, got {self.box.tolist()}")
+        lo, hi = -0.5 * self.box, 0.5 * self.box
+        inner = self.position - self.radius[:, None] * (~self.periodic)[None, :]
+        outer = self.position + self.radius[:, None] * (~self.periodic)[None, :]
+        out = np.flatnonzero(np.any((inner < lo - 1e-12 * self.box) | (outer > hi + 1e-12 * self.box), axis=1))
+        if out.size:
+            i = out[0]
+            raise StateError(
+                f"particle {i} at {self.position[i].tolist()} (radius {self.radius[i]}) lies outside the box "
+                f"[-L/2, L/2) with L = {self.box.tolist()}"
+            )
+
+    def overlapping_pair(self, rel_tol: float = OVERLAP_TOLERANCE):
+        """The most overlapping pair ``(i, j, distance)`` beyond ``rel_tol``, or ``None``."""
+        box, half = self.geometry()
+        sigma_max = 2.0 * float(self.radius.max())
+        nc = grid_shape(box, np.r_[self.periodic, [False] * (3 - self.dim)], sigma_max)
+        grid = new_grid(self.n, box, nc)
+        i, j, d = worst_overlap(self.points, self.radius, box, half, grid, rel_tol)
+        return None if i < 0 else (int(i), int(j), float(d))
+
+    def check_no_overlap(self, rel_tol: float = OVERLAP_TOLERANCE):
+        """Raise :class:`StateError` naming the deepest overlapping pair, if any."""
+        pair = self.overlapping_pair(rel_tol)
+        if pair is not None:
+            i, j, d = pair
+            raise StateError(
+                f"particles {i} and {j} overlap: centre distance {d:.12g} < contact distance "
+                f"{self.radius[i] + self.radius[j]:.12g}"
+            )
+
+    # ------------------------------------------------------------------ views
+    @property
+    def n(self) -> int:
+        """Number of particles."""
+        return self.position.shape[0]
+
+    @property
+    def dim(self) -> int:
+        """Spatial dimension (2 or 3)."""
+        return self.position.shape[1]
+
+    @property
+    def points(self) -> np.ndarray:
+        """``(N, 3)`` positions (``z = 0`` in 2D), as freud expects them."""
+        out = np.zeros((self.n, 3))
+        out[:, : self.dim] = self.position
+        return out
+
+    @property
+    def freud_box(self) -> list[float]:
+        """Box in freud's ``Box.from_box`` form: ``[Lx, Ly]`` (2D) or ``[Lx, Ly, Lz]`` (3D)."""
+        return self.box.tolist()
+
+    @property
+    def volume(self) -> float:
+        """Box volume (area in 2D)."""
+        return float(np.prod(self.box))
+
+    @property
+    def unwrapped_position(self) -> np.ndarray:
+        """Positions with periodic images added back (for displacements)."""
+        return self.position + self.image * self.box
+
+    def geometry(self):
+        """Internal 3-component box and minimum-image half-lengths (``inf`` on open axes)."""
+        box = np.ones(3)
+        box[: self.dim] = self.box
+        half = np.full(3, np.inf)
+        half[: self.dim] = np.where(self.periodic, 0.5 * self.box, np.inf)
+        return box, half
+
+    # ------------------------------------------------------------------ observables
+    def particle_volume(self) -> np.ndarray:
+        """Volume (3D) or area (2D) of each particle."""
+        if self.dim == 3:
+            return 4.0 / 3.0 * np.pi * self.radius**3
+        return np.pi * self.radius**2
+
+    @property
+    def packing_fraction(self) -> float:
+        r"""Packing fraction :math:`\eta = \sum_i v_i / V`."""
+        return float(self.particle_volume().sum() / self.volume)
+
+    def kinetic_energy(self) -> float:
+        """Translational kinetic energy."""
+        return 0.5 * float(np.sum(self.mass[:, None] * self.velocity**2))
+
+    def rotational_energy(self) -> float:
+        """Rotational kinetic energy."""
+        w2 = self.angular_velocity**2
+        if self.dim == 3:
+            w2 = w2.sum(axis=1)
+        return 0.5 * float(np.sum(self.inertia * w2))
+
+    def momentum(self) -> np.ndarray:
+        """Total linear momentum."""
+        return (self.mass[:, None] * self.velocity).sum(axis=0)
+
+    def temperature(self) -> float:
+        r"""Translational granular temperature :math:`T = \frac{1}{dN}\sum_i m_i|\mathbf v_i-\mathbf u|^2` (:math:`k_B=1`)."""
+        u = self.momentum() / self.mass.sum()
+        return float(np.sum(self.mass[:, None] * (self.velocity - u) ** 2) / (self.dim * self.n))
+
+    def copy(self) -> State:
+        """Deep copy."""
+        return dataclasses.replace(self, check_overlaps=False)
