@@ -1,7 +1,33 @@
 """edmd: event-driven molecular dynamics of hard and soft spheres and disks."""
 
+from .config import Config, ConfigError, load_config, parse_config
+from .engine import EngineOptions
 from .initial import lattice, maxwell_boltzmann, radii, random_packing
+from .simulation import Callback, Observer, Simulation, Totals
 from .state import State, StateError
+from .thermo import Thermo, read_thermo
+from .trajectory import Trajectory, read_state, write_state
 
-__all__ = ["State", "StateError", "lattice", "maxwell_boltzmann", "radii", "random_packing"]
+__all__ = [
+    "Callback",
+    "Config",
+    "ConfigError",
+    "EngineOptions",
+    "Observer",
+    "Simulation",
+    "State",
+    "StateError",
+    "Thermo",
+    "Totals",
+    "Trajectory",
+    "lattice",
+    "load_config",
+    "maxwell_boltzmann",
+    "parse_config",
+    "radii",
+    "random_packing",
+    "read_state",
+    "read_thermo",
+    "write_state",
+]
 __version__ = "0.1.0"

@@ -219,6 +219,8 @@ class Engine:
     def resync(self):
         """Stream everything to the current time, re-base the clock and rebuild (deterministic)."""
         self._flush_log()
+        now_local = float(self.acc[L.A_NOW])
+        self.acc[L.A_KE_INT] += self.acc[L.A_KE] * (now_local - self.acc[L.A_LAST_T])
         self.load(self.snapshot(self.now))
 
     # ------------------------------------------------------------------ observation

@@ -1,0 +1,270 @@
+"""The user-facing simulation: a state, its physics, the event engine, and observers."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time as _time
+from collections.abc import Callable
+
+import numpy as np
+
+from ._core import layout as L
+from .engine import Engine, EngineOptions
+from .state import State
+
+
+@dataclasses.dataclass
+class Totals:
+    """Cumulative counters and integrals of a simulation since its start (monotonic).
+
+    Attributes:
+        time: simulation time.
+        events: events processed (collisions, crossings, rebuilds, stale predictions).
+        collisions: binary collisions.
+        virial: :math:`\\sum_{\\rm coll} \\mathbf r_{ij}\\cdot\\mathbf J` (physics.md §5.3).
+        kinetic_integral: :math:`\\int E_{\\rm kin}\\,dt`.
+        dissipated: kinetic energy lost in collisions.
+    """
+
+    time: float
+    events: int
+    collisions: int
+    virial: float
+    kinetic_integral: float
+    dissipated: float
+
+
+class Observer:
+    """Something that looks at the system at exact, equally spaced simulation times.
+
+    Subclasses implement :meth:`observe`; ``interval`` is the spacing, ``start`` the first time
+    (the simulation's time when attached, by default). Firing times are ``start + k*interval``
+    computed by multiplication, so they never drift.
+    """
+
+    def __init__(self, interval: float, start: float | None = None):
+        if not interval > 0 or not math.isfinite(interval):
+            raise ValueError(f"observer interval must be a positive number, got {interval}")
+        self.interval = float(interval)
+        self.start = start
+        self._k = 0
+
+    def attach(self, sim: Simulation):
+        if self.start is None:
+            self.start = sim.time
+        self._k = max(0, math.ceil((sim.time - self.start) / self.interval - 1e-9))
+
+    @property
+    def next_time(self) -> float:
+        return self.start + self._k * self.interval
+
+    def fire(self, sim: Simulation, state: State, totals: Totals):
+        self.observe(sim, state, totals)
+        self._k += 1
+
+    def observe(self, sim: Simulation, state: State, totals: Totals):  # pragma: no cover - interface
+        raise NotImplementedError
+
+    def close(self):
+        """Flush and release resources (files)."""
+
+
+class Callback(Observer):
+    """Observer that calls ``fn(state, totals)`` at every firing.
+
+    Example:
+        >>> import edmd
+        >>> sim = edmd.Simulation(edmd.maxwell_boltzmann(edmd.lattice(108, 0.2), 1.0))
+        >>> times = []
+        >>> _ = sim.add(Callback(lambda s, tot: times.append(s.time), interval=0.5))
+        >>> sim.run(until_time=1.0)
+        >>> times
+        [0.0, 0.5, 1.0]
+    """
+
+    def __init__(self, fn: Callable[[State, Totals], None], interval: float, start: float | None = None):
+        super().__init__(interval, start)
+        self.fn = fn
+
+    def observe(self, sim, state, totals):
+        self.fn(state, totals)
+
+
+class Simulation:
+    """Event-driven molecular dynamics of one system.
+
+    Args:
+        state: the initial :class:`~edmd.state.State` (validated: no overlaps, positive radii...).
+        e_n: constant normal restitution coefficient (1 = elastic hard spheres).
+        gravity: uniform acceleration (``d`` numbers) or ``None``.
+        engine: :class:`~edmd.engine.EngineOptions` (or a dict of them).
+
+    Example:
+        >>> import edmd
+        >>> sim = edmd.Simulation(edmd.maxwell_boltzmann(edmd.lattice(256, 0.3), kT=1.0, seed=2))
+        >>> sim.run(until_time=2.0)
+        >>> sim.time, sim.collisions > 1000
+        (2.0, True)
+    """
+
+    def __init__(self, state: State, *, e_n: float = 1.0, gravity=None, engine: EngineOptions | dict | None = None):
+        if not 0.0 <= e_n <= 1.0:
+            raise ValueError(f"e_n must be in [0, 1], got {e_n}")
+        if isinstance(engine, dict):
+            engine = EngineOptions(**engine)
+        self._engine = Engine(state, engine, e_n=e_n, gravity=gravity)
+        self._time = float(state.time)
+        self.observers: list[Observer] = []
+        self.wall_seconds = 0.0
+
+    # ------------------------------------------------------------------ state
+    @property
+    def time(self) -> float:
+        """Current simulation time."""
+        return self._time
+
+    @property
+    def state(self) -> State:
+        """A copy of the state at the current time (assign a State to replace it)."""
+        return self._engine.snapshot(self._time)
+
+    @state.setter
+    def state(self, new: State):
+        new.check_no_overlap()
+        self._engine.load(new)
+        self._time = float(new.time)
+
+    @property
+    def engine(self) -> Engine:
+        """The underlying event engine (counters, neighbour mode, collision log)."""
+        return self._engine
+
+    @property
+    def events(self) -> int:
+        """Events processed so far."""
+        return int(self._engine.cnt[L.C_EVENTS])
+
+    @property
+    def collisions(self) -> int:
+        """Binary collisions so far."""
+        return int(self._engine.cnt[L.C_COLL])
+
+    def totals(self) -> Totals:
+        """Cumulative counters and integrals at the current time."""
+        e = self._engine
+        return Totals(
+            time=self._time,
+            events=self.events,
+            collisions=self.collisions,
+            virial=float(e.acc[L.A_VIRIAL]),
+            kinetic_integral=e.kinetic_integral(self._time),
+            dissipated=float(e.acc[L.A_DISSIPATED]),
+        )
+
+    # ------------------------------------------------------------------ observers
+    def add(self, observer: Observer) -> Observer:
+        """Attach an observer; it fires at its exact times during :meth:`run`."""
+        observer.attach(self)
+        self.observers.append(observer)
+        return observer
+
+    def _fire_due(self):
+        due = [o for o in self.observers if o.next_time <= self._time]
+        if due:
+            state = self.state
+            totals = self.totals()
+            for o in due:
+                o.fire(self, state, totals)
+
+    # ------------------------------------------------------------------ running
+    def run(
+        self,
+        until_time: float | None = None,
+        max_events: int | None = None,
+        wall_time: float | None = None,
+        progress: bool = False,
+    ):
+        """Advance the system.
+
+        Stops at simulation time ``until_time`` (exactly: particles are streamed to it), after
+        ``max_events`` events, or after ``wall_time`` seconds of computing, whichever comes first.
+        Observers fire at their exact times on the way (particles streamed to those times).
+
+        Args:
+            until_time: absolute simulation time to stop at.
+            max_events: event budget of this call.
+            wall_time: budget in wall-clock seconds (checked between chunks of events).
+            progress: show a progress bar (rich).
+        """
+        if until_time is None and max_events is None and wall_time is None:
+            raise ValueError("run() needs until_time, max_events or wall_time")
+        if until_time is not None and (not math.isfinite(until_time) or until_time < self._time):
+            raise ValueError(f"until_time must be a finite time >= the current time {self._time}, got {until_time}")
+        target = math.inf if until_time is None else float(until_time)
+        budget = math.inf if max_events is None else int(max_events)
+        deadline = math.inf if wall_time is None else _time.perf_counter() + wall_time
+        bar = _Progress(self._time, target, budget) if progress else None
+        started = _time.perf_counter()
+        chunk = max(20 * self._engine.n, 100_000)
+        try:
+            self._fire_due()
+            while budget > 0 and _time.perf_counter() < deadline:
+                stop = min([target] + [o.next_time for o in self.observers])
+                before = self.events
+                status = self._engine.advance(stop, min(budget, chunk))
+                budget -= self.events - before
+                if status in (L.ST_TIME, L.ST_IDLE) and math.isfinite(stop):
+                    self._time = stop
+                    self._fire_due()
+                    if stop >= target:
+                        break
+                else:
+                    self._time = max(self._time, self._engine.now)
+                    if status == L.ST_IDLE:
+                        break
+                if bar:
+                    bar.update(self)
+        finally:
+            self.wall_seconds += _time.perf_counter() - started
+            if bar:
+                bar.close(self)
+
+    def close(self):
+        """Close every observer (flush files)."""
+        for o in self.observers:
+            o.close()
+
+
+class _Progress:
+    """A rich progress bar over simulation time (or events when no end time is set)."""
+
+    def __init__(self, t0, target, budget):
+        from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
+        self.t0, self.target, self.budget = t0, target, budget
+        self.bar = Progress(
+            TextColumn("[bold]edmd"),
+            BarColumn(),
+            TextColumn("{task.percentage:>5.1f}%"),
+            TextColumn("t={task.fields[t]:.4g}  {task.fields[rate]}"),
+            TimeElapsedColumn(),
+            TimeRemainingColumn(),
+        )
+        total = (target - t0) if math.isfinite(target) else float(budget if math.isfinite(budget) else 1)
+        self.task = self.bar.add_task("run", total=max(total, 1e-300), t=t0, rate="")
+        self.start = _time.perf_counter()
+        self.events0 = None
+        self.bar.start()
+
+    def update(self, sim):
+        if self.events0 is None:
+            self.events0 = sim.events
+        dt = max(_time.perf_counter() - self.start, 1e-9)
+        rate = f"{(sim.events - self.events0) / dt:.3g} events/s"
+        done = (sim.time - self.t0) if math.isfinite(self.target) else sim.events - self.events0
+        self.bar.update(self.task, completed=done, t=sim.time, rate=rate)
+
+    def close(self, sim):
+        self.update(sim)
+        self.bar.stop()

@@ -1,0 +1,117 @@
+"""Thermodynamic output: temperature, pressure, collision rate per output interval (CSV)."""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+
+import numpy as np
+
+from .simulation import Observer, Simulation, Totals
+from .state import State
+
+COLUMNS = (
+    "time",
+    "events",
+    "collisions",
+    "kinetic_energy",
+    "temperature",
+    "pressure",
+    "collision_rate",
+    "dissipated_energy",
+)
+
+
+def pressure(state: State, d_kinetic_integral: float, d_virial: float, dt: float) -> float:
+    r"""Pressure over an interval from the kinetic-energy integral and the collision virial.
+
+    physics.md §5.3:
+
+    .. math::
+        P = \frac{1}{dV}\Big[\frac{1}{t_{\rm obs}}\int \sum_i m_i |\mathbf v_i - \mathbf u|^2\,dt
+            + \frac{1}{t_{\rm obs}}\sum_{\rm coll}\mathbf r_{ij}\cdot\mathbf J\Big]
+
+    with the mean-flow term :math:`M|\mathbf u|^2` taken from the momentum at the end of the
+    interval (conserved in a periodic box without gravity).
+    """
+    if dt <= 0:
+        return math.nan
+    p = state.momentum()
+    kin = 2.0 * d_kinetic_integral / dt - float(p @ p) / state.mass.sum()
+    return (kin + d_virial / dt) / (state.dim * state.volume)
+
+
+class Thermo(Observer):
+    """Thermodynamic table, one row per interval, optionally written to a CSV file.
+
+    Each row holds the instantaneous ``time, events, collisions, kinetic_energy, temperature,
+    dissipated_energy`` and, averaged over the interval that ends there, the ``pressure``
+    (kinetic + collision virial, physics.md §5.3) and the ``collision_rate`` per particle,
+    :math:`2\\Delta N_{\\rm coll}/(N\\Delta t)`. The first row has no interval (NaN).
+
+    Example:
+        >>> import edmd
+        >>> sim = edmd.Simulation(edmd.maxwell_boltzmann(edmd.lattice(256, 0.1), 1.0, seed=1))
+        >>> th = sim.add(Thermo(interval=1.0))
+        >>> sim.run(until_time=3.0)
+        >>> [round(r["time"], 6) for r in th.rows], round(th.rows[-1]["temperature"], 9)
+        ([0.0, 1.0, 2.0, 3.0], 1.0)
+    """
+
+    def __init__(self, interval: float, path: str | os.PathLike | None = None, start: float | None = None):
+        super().__init__(interval, start)
+        self.rows: list[dict] = []
+        self.path = path
+        self._file = None
+        self._writer = None
+        self._last: Totals | None = None
+
+    def observe(self, sim: Simulation, state: State, totals: Totals):
+        row = {
+            "time": totals.time,
+            "events": totals.events,
+            "collisions": totals.collisions,
+            "kinetic_energy": state.kinetic_energy(),
+            "temperature": state.temperature(),
+            "pressure": math.nan,
+            "collision_rate": math.nan,
+            "dissipated_energy": totals.dissipated,
+        }
+        last = self._last
+        if last is not None and totals.time > last.time:
+            dt = totals.time - last.time
+            row["pressure"] = pressure(state, totals.kinetic_integral - last.kinetic_integral, totals.virial - last.virial, dt)
+            row["collision_rate"] = 2.0 * (totals.collisions - last.collisions) / (state.n * dt)
+        self._last = totals
+        self.rows.append(row)
+        if self.path is not None:
+            self._write(row)
+
+    def _write(self, row):
+        if self._file is None:
+            new = not os.path.exists(self.path) or os.path.getsize(self.path) == 0
+            self._file = open(self.path, "a", newline="")
+            self._writer = csv.DictWriter(self._file, fieldnames=COLUMNS)
+            if new:
+                self._writer.writeheader()
+        self._writer.writerow({k: repr(float(v)) if isinstance(v, float) else v for k, v in row.items()})
+        self._file.flush()
+
+    def table(self) -> dict[str, np.ndarray]:
+        """The rows as a dict of column arrays."""
+        return {c: np.array([r[c] for r in self.rows]) for c in COLUMNS}
+
+    def close(self):
+        if self._file is not None:
+            self._file.close()
+            self._file = None
+
+
+def read_thermo(path: str | os.PathLike) -> dict[str, np.ndarray]:
+    """Read a thermo CSV written by :class:`Thermo` into a dict of column arrays."""
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    if not rows:
+        return {}
+    return {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
