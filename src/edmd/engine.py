@@ -37,6 +37,10 @@ class EngineOptions:
         resync_every: events between two maintenance resyncs, per particle.
         events_per_bucket: target occupation of a calendar bucket.
         auto_threshold: packing fraction above which ``"auto"`` picks lists.
+        debug: check at every collision that the pair touches and that neither partner
+            overlaps any neighbour (relative tolerance ``debug_tolerance``); a violation stops
+            the run with :class:`EngineError`. Slower; for testing.
+        debug_tolerance: relative tolerance of the debug checks.
     """
 
     neighbours: str = "auto"
@@ -44,6 +48,8 @@ class EngineOptions:
     resync_every: float = 50.0
     events_per_bucket: float = 8.0
     auto_threshold: float = 0.2
+    debug: bool = False
+    debug_tolerance: float = 1e-9
 
     def __post_init__(self):
         if self.neighbours not in ("auto", "list", "cells"):
@@ -54,6 +60,10 @@ class EngineOptions:
             raise ValueError(f"resync_every must be positive, got {self.resync_every}")
         if not self.events_per_bucket > 0:
             raise ValueError(f"events_per_bucket must be positive, got {self.events_per_bucket}")
+
+
+class EngineError(RuntimeError):
+    """The event loop found an inconsistency (debug mode) or cannot go on."""
 
 
 class Engine:
@@ -76,6 +86,8 @@ class Engine:
         self.fp = np.zeros(L.N_FP)
         self.ip = np.zeros(L.N_IP, np.int64)
         self.fp[L.FP_EN] = e_n
+        self.ip[L.IP_DEBUG] = int(self.options.debug)
+        self.fp[L.FP_DEBUG_TOL] = self.options.debug_tolerance
         self.acc = np.zeros(L.N_ACC)
         self.cnt = np.zeros(L.N_COUNTERS, np.int64)
         self.clog = np.zeros((0, 5))
@@ -213,6 +225,12 @@ class Engine:
             elif status == L.ST_LIST_FULL:
                 self.list_capacity = int(self.list_capacity * 1.5) + 4
                 self.resync()
+            elif status == L.ST_OVERLAP:
+                i, j = (int(self.tag[self.cnt[c]]) for c in (L.C_BAD_I, L.C_BAD_J))
+                raise EngineError(
+                    f"debug check failed at t = {self.now!r}: particles {i} and {j} "
+                    f"(relative contact error {self.acc[L.A_BAD]:.3g})"
+                )
             elif status != L.ST_EVENTS:
                 return status
 

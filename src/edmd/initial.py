@@ -163,17 +163,21 @@ def lattice(
     a = (volume / np.prod(counts * cell)) ** (1.0 / dim)
     box = counts * cell * a
     pos = sites * cell * a
-    nn = a * {"sc": 1.0, "fcc": 1 / math.sqrt(2), "square": 1.0, "hex": 1.0}[kind]
-    if nn < 2.0 * r.max() * (1 + 1e-12):
-        eta_max = packing_fraction * (nn / (2.0 * r.max())) ** dim
-        raise StateError(
-            f"packing fraction {packing_fraction} cannot be built on a {kind} lattice with these radii: "
-            f"neighbouring sites are {nn:.6g} apart but the largest diameter is {2 * r.max():.6g} "
-            f"(at most {eta_max:.4f} here)"
-        )
     chosen = np.sort(rng.choice(len(sites), size=n, replace=False)) if len(sites) > n else np.arange(n)
     pos = pos[chosen] - 0.5 * box + 0.25 * a * cell
     pos = (pos + 0.5 * box) % box - 0.5 * box
+    r = rng.permutation(r) if np.ptp(r) > 0 else r
+    nn = a * {"sc": 1.0, "fcc": 1 / math.sqrt(2), "square": 1.0, "hex": 1.0}[kind]
+    if nn < 2.0 * r.max() * (1 + 1e-12):
+        trial = State(position=pos, velocity=np.zeros_like(pos), radius=r, mass=1.0, box=box, check_overlaps=False)
+        if trial.overlapping_pair(0.0) is not None:
+            eta_max = packing_fraction * (nn / (2.0 * r.max())) ** dim
+            magic = {"fcc": "4 k^3", "sc": "k^3", "square": "k^2", "hex": "2 k^2 (near-square boxes)"}[kind]
+            raise StateError(
+                f"packing fraction {packing_fraction} cannot be built on a {kind} lattice with these radii: "
+                f"neighbouring sites are {nn:.6g} apart but the largest diameter is {2 * r.max():.6g} "
+                f"(at most {eta_max:.4f} here; n = {magic} fills the lattice exactly)"
+            )
     r = rng.permutation(r) if np.ptp(r) > 0 else r
     m = _masses(r, dim, mass, density)
     return State(position=pos, velocity=np.zeros_like(pos), radius=r, mass=m, box=box)

@@ -27,19 +27,20 @@ ST_LIST_FULL = 2  # a neighbour list ran out of capacity
 ST_LOG_FULL = 3  # the collision log buffer is full
 ST_IDLE = 4  # no particle has a future event
 ST_STALL = 5  # too many events at one instant (inelastic collapse / Zeno)
+ST_OVERLAP = 6  # debug mode found an overlap or a contact away from sigma
 
 # integer counters (cnt array)
-C_EVENTS, C_COLL, C_STALE, C_AUX, C_REBUILD, C_WALL, C_LOG, C_ZENO_RUN = range(8)
+C_EVENTS, C_COLL, C_STALE, C_AUX, C_REBUILD, C_WALL, C_LOG, C_ZENO_RUN, C_BAD_I, C_BAD_J = range(10)
 N_COUNTERS = 16
 
 # float accumulators (acc array)
-A_VIRIAL, A_DISSIPATED, A_KE, A_KE_INT, A_LAST_T, A_WALL_IMPULSE, A_NOW = range(7)
+A_VIRIAL, A_DISSIPATED, A_KE, A_KE_INT, A_LAST_T, A_WALL_IMPULSE, A_NOW, A_BAD = range(8)
 N_ACC = 16
 
 # integer parameters (ip array)
-IP_MODE, IP_RULE, IP_LOG_CAP, IP_MAXSTALL = range(4)
+IP_MODE, IP_RULE, IP_LOG_CAP, IP_MAXSTALL, IP_DEBUG = range(5)
 N_IP = 8
 
 # float parameters (fp array)
-FP_SKIN, FP_EN = 0, 1
+FP_SKIN, FP_EN, FP_DEBUG_TOL = 0, 1, 2
 N_FP = 16

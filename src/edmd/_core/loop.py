@@ -24,7 +24,7 @@ from . import layout as L
 from .cells import cell_block, cell_insert, cell_of_point, cell_remove, crossing_time
 from .collide import collide_smooth
 from .nblist import build_lists, rebuild_list, shell_exit_time
-from .predict import INF, advance, pair_time
+from .predict import INF, advance, pair_time, separation
 from .queue import queue_top, queue_update
 
 _I32 = np.int32
@@ -106,6 +106,45 @@ def _requeue(q, ev, i):
     a = ev[3][i]
     p = ev[0][i]
     queue_update(q, i, a if a <= p else p)
+
+
+@njit(cache=True, inline="always")
+def _bad_contact(p, k, t, P, geo, tol, acc, cnt, exact):
+    """Record ``(p, k)`` if they overlap (or, with ``exact``, do not touch) beyond ``tol``."""
+    box, half, grav = geo
+    dx, dy, dz, gx, gy, gz = separation(P, p, k, t, box, half, grav)
+    err = 1.0 - np.sqrt(dx * dx + dy * dy + dz * dz) / (P[p, L.R] + P[k, L.R])
+    if exact:
+        err = abs(err)
+    if err > tol:
+        cnt[L.C_BAD_I], cnt[L.C_BAD_J], acc[L.A_BAD] = p, k, err
+        return True
+    return False
+
+
+@njit(cache=True)
+def _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf):
+    """Debug mode: the colliding pair touches (|r_ij| = sigma) and neither partner overlaps a candidate.
+
+    Records the offending pair in ``cnt[C_BAD_I/J]`` and the relative error in ``acc[A_BAD]``.
+    """
+    tol = fp[L.FP_DEBUG_TOL]
+    if _bad_contact(i, j, t, P, geo, tol, acc, cnt, True):
+        return False
+    for p in (np.int64(i), np.int64(j)):
+        if mode == L.NB_LIST:
+            for s in range(lists[1][p]):
+                if _bad_contact(p, lists[0][p, s], t, P, geo, tol, acc, cnt, False):
+                    return False
+        else:
+            nc = cell_block(grid, grid[2][p], geo[1], cbuf, -1, 0)
+            for s in range(nc):
+                k = grid[0][cbuf[s]]
+                while k >= 0:
+                    if k != p and _bad_contact(p, k, t, P, geo, tol, acc, cnt, False):
+                        return False
+                    k = grid[1][k]
+    return True
 
 
 @njit(cache=True, inline="always")
@@ -210,6 +249,8 @@ def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, t_stop, ma
         if log_cap > 0 and cnt[L.C_LOG] >= log_cap:
             cnt[L.C_EVENTS] -= 1
             return L.ST_LOG_FULL
+        if ip[L.IP_DEBUG] and not _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf):
+            return L.ST_OVERLAP
         advance(P, i, t, grav)
         advance(P, j, t, grav)
         acc[L.A_KE_INT] += acc[L.A_KE] * (t - acc[L.A_LAST_T])

@@ -105,7 +105,7 @@ def build_lists(P, grid, lists, box, half, skin, cbuf):
 
 @njit(cache=True, inline="always")
 def shell_exit_time(P, i, t, lists, box, half, grav, skin):
-    """Time at which ``i`` leaves its shell: the ball of radius ``skin/2`` around its centre.
+    r"""Time at which ``i`` leaves its shell: the ball of radius ``skin/2`` around its centre.
 
     Without gravity the exact exit from the ball (quadratic); with gravity the exit from the
     inscribed cube of half-edge :math:`s/(2\sqrt3)`, whose faces are the parabolic gap roots of

@@ -1,0 +1,96 @@
+"""Initial states: lattices, random packings, radius distributions, Maxwell-Boltzmann velocities."""
+
+import numpy as np
+import pytest
+
+from edmd import StateError, lattice, maxwell_boltzmann, radii, random_packing
+
+
+@pytest.mark.parametrize("kind_by_dim", [0, 1])
+@pytest.mark.parametrize("n", [1, 50, 500])
+def test_lattice_packing_fraction_and_no_overlap(dim, kind_by_dim, n):
+    kind = {2: ("hex", "square"), 3: ("fcc", "sc")}[dim][kind_by_dim]
+    s = lattice(n, 0.3, dim=dim, kind=kind)
+    assert s.n == n
+    assert s.packing_fraction == pytest.approx(0.3, rel=1e-12)
+    assert s.overlapping_pair() is None
+
+
+def test_perfect_fcc_is_the_requested_lattice():
+    s = lattice(4 * 5**3, 0.5, dim=3, kind="fcc")
+    # nearest-neighbour distance of fcc with a^3 = 4 v / eta
+    a = (4 * (np.pi / 6) / 0.5) ** (1 / 3)
+    d = s.position[1:] - s.position[0]
+    d -= s.box * np.round(d / s.box)
+    assert np.linalg.norm(d, axis=1).min() == pytest.approx(a / np.sqrt(2), rel=1e-12)
+
+
+@pytest.mark.parametrize("dim, kind, eta", [(3, "fcc", 0.75), (3, "sc", 0.6), (2, "square", 0.8), (2, "hex", 0.92)])
+def test_impossible_lattice_packing_is_explained(dim, kind, eta):
+    with pytest.raises(StateError, match="cannot be built"):
+        lattice(100, eta, dim=dim, kind=kind)
+
+
+@pytest.mark.parametrize("eta", [0.0, 1.0, -0.1, 1.5])
+def test_packing_fraction_out_of_range(dim, eta):
+    with pytest.raises(StateError, match="packing fraction must be in"):
+        random_packing(10, eta, dim=dim)
+
+
+def test_random_packing_polydisperse(dim):
+    s = random_packing(300, 0.2, dim=dim, radius={"kind": "uniform", "min": 0.3, "max": 0.7}, density=2.0, seed=3)
+    assert s.overlapping_pair() is None
+    assert s.packing_fraction == pytest.approx(0.2, rel=1e-12)
+    vol = 4 / 3 * np.pi * s.radius**3 if dim == 3 else np.pi * s.radius**2
+    assert np.allclose(s.mass, 2.0 * vol)
+    assert 0.3 <= s.radius.min() and s.radius.max() <= 0.7
+
+
+def test_random_packing_too_dense_fails_clearly():
+    with pytest.raises(StateError, match="random insertion failed"):
+        random_packing(500, 0.6, dim=3, max_attempts=50)
+
+
+def test_reproducible_from_seed(dim):
+    a = maxwell_boltzmann(random_packing(100, 0.1, dim=dim, seed=7), 1.0, seed=8)
+    b = maxwell_boltzmann(random_packing(100, 0.1, dim=dim, seed=7), 1.0, seed=8)
+    c = maxwell_boltzmann(random_packing(100, 0.1, dim=dim, seed=7), 1.0, seed=9)
+    assert np.array_equal(a.position, b.position) and np.array_equal(a.velocity, b.velocity)
+    assert not np.array_equal(a.velocity, c.velocity)
+
+
+def test_maxwell_boltzmann(dim):
+    s = lattice(4000, 0.2, dim=dim, radius={"kind": "discrete", "values": [0.4, 0.5], "fractions": [1, 1]}, density=1.0)
+    s = maxwell_boltzmann(s, 2.5, seed=1, spin=True)
+    assert s.temperature() == pytest.approx(2.5, rel=1e-12)
+    assert np.abs(s.momentum()).max() < 1e-10
+    # equipartition between species: <m v^2> per component equal for small and large
+    small = s.radius == 0.4
+    e = (s.mass[:, None] * s.velocity**2).mean(axis=1)
+    assert e[small].mean() == pytest.approx(e[~small].mean(), rel=0.06)
+    dof = 3 if dim == 3 else 1
+    w2 = s.angular_velocity**2 if dim == 2 else (s.angular_velocity**2).sum(axis=1)
+    assert np.sum(s.inertia * w2) / (dof * s.n) == pytest.approx(2.5, rel=1e-12)
+
+
+@pytest.mark.parametrize(
+    "spec, match",
+    [
+        ({"kind": "uniform", "min": 0.5}, "needs the key 'max'"),
+        ({"kind": "gamma"}, "unknown radius distribution"),
+        ({"kind": "uniform", "min": 0.5, "max": 0.4}, "min <= max"),
+        ({"kind": "normal", "mean": 1, "std": 0.1, "sd": 1}, "unknown keys"),
+        (-1.0, "radius must be positive"),
+    ],
+)
+def test_bad_radius_distributions(spec, match):
+    with pytest.raises(StateError, match=match):
+        radii(10, spec)
+
+
+def test_radius_distributions_statistics():
+    rng = np.random.default_rng(0)
+    r = radii(100000, {"kind": "lognormal", "mean": 0.5, "std": 0.05}, rng)
+    assert r.mean() == pytest.approx(0.5, rel=0.01) and r.std() == pytest.approx(0.05, rel=0.03)
+    r = radii(100000, {"kind": "normal", "mean": 0.5, "std": 0.05}, rng)
+    assert r.mean() == pytest.approx(0.5, rel=0.01) and r.min() >= 0.35

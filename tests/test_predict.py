@@ -1,0 +1,109 @@
+"""Event-time predictors against physics.md §1.2-§1.4 (T1-T3, T13) and brute-force root finding."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from edmd._core.predict import INF, contact_time, gap_time, sphere_exit_time
+
+
+def test_t1_pair_time_worked_example():
+    # physics.md W1 / T1: r_ij = (3,1,0), g = (-1,0,0), sigma = 2  ->  3 - sqrt(3)
+    assert contact_time(3.0, 1.0, 0.0, -1.0, 0.0, 0.0, 2.0) == pytest.approx(3 - math.sqrt(3), rel=1e-15, abs=0)
+    assert contact_time(3.0, 1.0, 0.0, -1.0, 0.0, 0.0, 2.0) == 1.2679491924311228
+
+
+@pytest.mark.parametrize("dx", [3.0, 1.5])  # separated, and overlapping
+def test_t2_receding_pairs_never_collide(dx):
+    assert contact_time(dx, 0.0, 0.0, 1.0, 0.0, 0.0, 2.0) == INF
+    assert contact_time(dx, 0.0, 0.0, 0.0, 1.0, 0.0, 2.0) == INF  # tangential: b = 0
+
+
+def test_t3_overlapping_and_approaching_collide_now():
+    assert contact_time(1.5, 0.0, 0.0, -1.0, 0.0, 0.0, 2.0) == 0.0
+
+
+def test_miss_gives_no_event():
+    assert contact_time(3.0, 2.5, 0.0, -1.0, 0.0, 0.0, 2.0) == INF
+
+
+def test_near_contact_is_free_of_cancellation():
+    # gap 1e-13 closing at speed 1: naive (-b - sqrt(disc))/a loses every digit here
+    gap = 1e-13
+    t = contact_time(2.0 + gap, 0.0, 0.0, -1.0, 0.0, 0.0, 2.0)
+    assert t == pytest.approx(gap, rel=1e-12)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.lists(st.floats(-5, 5), min_size=3, max_size=3),
+    st.lists(st.floats(-3, 3), min_size=3, max_size=3),
+    st.floats(0.5, 2.0),
+)
+def test_contact_time_solves_the_contact_equation(r, g, sigma):
+    r, g = np.array(r), np.array(g)
+    t = contact_time(*r, *g, sigma)
+    if r @ r <= sigma**2 or not np.isfinite(t):
+        return
+    assert t >= 0
+    assert np.linalg.norm(r + g * t) == pytest.approx(sigma, rel=1e-9)
+    # and no earlier contact: the distance is above sigma on a fine grid before t
+    s = np.linspace(0, t, 50)[:-1]
+    assert np.all(np.linalg.norm(r[None] + g[None] * s[:, None], axis=1) >= sigma * (1 - 1e-9))
+
+
+def test_t13_dropped_ball_and_bounce():
+    # physics.md T13: dropped from gap h0 with u = 0 under |G|: first hit sqrt(2 h0/|G|)
+    h0, G = 0.7, 9.81
+    assert gap_time(h0, 0.0, -G) == pytest.approx(math.sqrt(2 * h0 / G), rel=1e-14)
+    # right after an elastic bounce (h0 = 0, u > 0): next hit 2u/|G| later, no spurious zero root
+    u = 3.0
+    assert gap_time(0.0, u, -G) == pytest.approx(2 * u / G, rel=1e-14)
+
+
+@pytest.mark.parametrize(
+    "h0, u, a, expected",
+    [
+        (1.0, -2.0, 0.0, 0.5),  # no field
+        (1.0, 2.0, 0.0, INF),  # moving away
+        (-1e-15, -1.0, 0.0, 0.0),  # round-off overlap, closing
+    ],
+)
+def test_gap_time_without_field(h0, u, a, expected):
+    assert gap_time(h0, u, a) == expected
+
+
+def test_gap_time_pushed_away_from_plane():
+    # a > 0: reached only if approaching fast enough: h = 1 - t + t^2/2 * 0.4 has a root
+    assert gap_time(1.0, -1.0, 0.4) == pytest.approx((1 - math.sqrt(1 - 0.8)) / 0.4, rel=1e-14)
+    assert gap_time(1.0, -1.0, 1.0) == INF  # turns around before reaching it
+    assert gap_time(1.0, 1.0, 1.0) == INF
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.floats(0.0, 3.0), st.floats(-3, 3), st.floats(-3, 3))
+def test_gap_time_is_the_first_closing_root(h0, u, a):
+    t = gap_time(h0, u, a)
+    h = lambda s: h0 + u * s + 0.5 * a * s * s  # noqa: E731
+    if t == INF:
+        s = np.linspace(0, 50, 20001)
+        assert np.all(h(s) > -1e-9) or h0 == 0.0
+        return
+    assert abs(h(t)) <= 1e-9 * max(1.0, h0, abs(u) * t, abs(a) * t * t)
+    assert u + a * t <= 1e-9  # closing (or grazing) at the event
+    s = np.linspace(0, t, 200)[1:-1]
+    assert np.all(h(s) >= -1e-9)
+
+
+def test_sphere_exit_time():
+    # from the centre with speed 2: leaves the ball of radius 1 after 0.5
+    assert sphere_exit_time(0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 1.0) == 0.5
+    # from near the surface moving outwards: tiny, cancellation-free
+    t = sphere_exit_time(1.0 - 1e-12, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0)
+    assert t == pytest.approx(1e-12, rel=1e-6)
+    # moving inwards from x = 0.5: crosses the whole ball, t = 1.5
+    assert sphere_exit_time(0.5, 0.0, 0.0, -1.0, 0.0, 0.0, 1.0) == 1.5
+    assert sphere_exit_time(0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0) == INF

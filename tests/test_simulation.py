@@ -1,0 +1,85 @@
+"""Run control: exact observer times, split runs, budgets."""
+
+import numpy as np
+import pytest
+
+import edmd
+from edmd import Callback, Simulation
+
+
+def _sim(dim, **kw):
+    s = edmd.maxwell_boltzmann(edmd.lattice(256, 0.3, dim=dim), 1.0, seed=1)
+    return Simulation(s, **kw)
+
+
+def test_split_run_is_bit_for_bit_the_whole_run(dim):
+    a = _sim(dim, engine={"resync_every": 3.0})
+    a.run(until_time=4.0)
+    b = _sim(dim, engine={"resync_every": 3.0})
+    for t in (0.5, 1.25, 2.0, 3.7):
+        b.run(until_time=t)
+    b.run(max_events=300)
+    assert b.time < 4.0
+    b.run(until_time=4.0)
+    sa, sb = a.state, b.state
+    assert a.collisions == b.collisions
+    assert np.array_equal(sa.position, sb.position)
+    assert np.array_equal(sa.velocity, sb.velocity)
+
+
+def test_observers_fire_at_exact_times_with_streamed_particles(dim):
+    sim = _sim(dim)
+    seen = []
+    sim.add(Callback(lambda s, tot: seen.append((s.time, s.copy())), interval=0.25))
+    sim.run(until_time=1.0)
+    assert [t for t, _ in seen] == [0.0, 0.25, 0.5, 0.75, 1.0]
+    # a snapshot is the true state at that instant: no overlaps, energy exact
+    for t, s in seen:
+        assert s.overlapping_pair(1e-9) is None
+        assert s.kinetic_energy() == pytest.approx(seen[0][1].kinetic_energy(), rel=1e-12)
+
+
+def test_observing_does_not_disturb_the_trajectory(dim):
+    a = _sim(dim)
+    a.add(Callback(lambda s, t: None, interval=0.01))
+    a.run(until_time=2.0)
+    b = _sim(dim)
+    b.run(until_time=2.0)
+    assert np.array_equal(a.state.velocity, b.state.velocity)
+
+
+def test_max_events_and_time(dim):
+    sim = _sim(dim)
+    sim.run(max_events=5000)
+    assert sim.events == 5000
+    assert sim.time > 0
+    with pytest.raises(ValueError, match="until_time must be"):
+        sim.run(until_time=sim.time / 2)
+    with pytest.raises(ValueError, match="needs until_time"):
+        sim.run()
+
+
+def test_wall_time_budget_stops_the_run(dim):
+    sim = _sim(dim)
+    sim.run(until_time=1e9, wall_time=0.2)
+    assert sim.time < 1e9 and sim.events > 0
+
+
+def test_state_assignment_restarts_from_it(dim):
+    sim = _sim(dim)
+    sim.run(until_time=0.5)
+    s = sim.state
+    s.velocity *= 2.0
+    sim.state = s
+    assert sim.state.temperature() == pytest.approx(4.0, rel=1e-12)
+    sim.run(until_time=1.0)
+    assert sim.time == 1.0
+
+
+def test_bad_parameters(dim):
+    with pytest.raises(ValueError, match="e_n must be in"):
+        _sim(dim, e_n=1.5)
+    with pytest.raises(ValueError, match="neighbours must be"):
+        _sim(dim, engine={"neighbours": "octree"})
+    with pytest.raises(ValueError, match="observer interval"):
+        Callback(lambda s, t: None, interval=0.0)

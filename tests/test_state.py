@@ -1,0 +1,94 @@
+"""State validation: bad input gets a clear error naming the problem."""
+
+import numpy as np
+import pytest
+
+import edmd
+from edmd import State, StateError
+
+
+def two(dim, d=1.5, **kw):
+    pos = np.zeros((2, dim))
+    pos[1, 0] = d
+    args = dict(position=pos, velocity=np.zeros((2, dim)), radius=[0.5, 0.5], mass=[1.0, 1.0], box=[10.0] * dim)
+    args.update(kw)
+    return State(**args)
+
+
+def test_valid_state(dim):
+    s = two(dim)
+    assert (s.n, s.dim) == (2, dim)
+    assert s.angular_velocity.shape == ((2, 3) if dim == 3 else (2,))
+    assert s.inertia == pytest.approx((0.4 if dim == 3 else 0.5) * 0.25)
+
+
+def test_overlap_names_the_pair(dim):
+    with pytest.raises(StateError, match="particles 0 and 1 overlap"):
+        two(dim, d=0.9)
+
+
+def test_overlap_across_the_periodic_boundary(dim):
+    pos = np.zeros((2, dim))
+    pos[0, 0], pos[1, 0] = -4.8, 4.9
+    with pytest.raises(StateError, match="particles 0 and 1 overlap"):
+        State(position=pos, velocity=pos * 0, radius=0.5, mass=1.0, box=[10.0] * dim)
+
+
+@pytest.mark.parametrize(
+    "field, value, match",
+    [
+        ("radius", [0.5, -0.1], "radius must be positive: particle 1"),
+        ("radius", [0.5, 0.0], "radius must be positive"),
+        ("mass", [1.0, 0.0], "mass must be positive: particle 1"),
+        ("box", None, "box"),
+    ],
+)
+def test_non_positive_values(dim, field, value, match):
+    if field == "box":
+        value = [10.0] * (dim - 1) + [-1.0]
+    with pytest.raises(StateError, match=match):
+        two(dim, **{field: value})
+
+
+def test_nan_is_rejected(dim):
+    v = np.zeros((2, dim))
+    v[1, 0] = np.nan
+    with pytest.raises(StateError, match=r"velocity is not finite .* index \(1, 0\)"):
+        two(dim, velocity=v)
+
+
+def test_outside_box(dim):
+    pos = np.zeros((2, dim))
+    pos[1, 0] = 7.0
+    with pytest.raises(StateError, match="particle 1 .* outside the box"):
+        two(dim, position=pos)
+
+
+def test_shape_errors(dim):
+    with pytest.raises(StateError, match="velocity must have shape"):
+        two(dim, velocity=np.zeros((3, dim)))
+    with pytest.raises(StateError, match="position must have shape"):
+        State(position=np.zeros((2, 4)), velocity=np.zeros((2, 4)), radius=1, mass=1, box=[1, 1, 1, 1])
+
+
+def test_observables(dim):
+    v = np.zeros((2, dim))
+    v[0, 0], v[1, 0] = 1.0, 3.0  # mean flow 2: peculiar speeds -1, +1
+    s = two(dim, velocity=v)
+    assert s.kinetic_energy() == pytest.approx(5.0)
+    assert s.temperature() == pytest.approx(2.0 / (dim * 2))
+    assert s.momentum()[0] == 4.0
+    assert s.packing_fraction == pytest.approx(2 * (np.pi / 4 if dim == 2 else np.pi / 6) / 10.0**dim)
+
+
+def test_copy_is_deep(dim):
+    s = two(dim)
+    c = s.copy()
+    c.position[0, 0] = 0.1
+    assert s.position[0, 0] == 0.0
+
+
+def test_unwrapped_positions(dim):
+    s = two(dim, image=np.array([[1] + [0] * (dim - 1), [0] * dim]))
+    assert s.unwrapped_position[0, 0] == 10.0
+    assert isinstance(edmd.State, type)
