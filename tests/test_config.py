@@ -1,0 +1,82 @@
+"""Configuration files: the documented examples work, mistakes are named."""
+
+import pytest
+
+import edmd
+from edmd.config import EXAMPLE, Config, ConfigError, dump_config, load_config, parse_config
+from edmd.runner import build_state
+
+ISSUE_EXAMPLE = """
+[system]
+dim = {dim}
+n = 4000
+packing_fraction = 0.3
+kT = 1.0
+seed = 1
+[run]
+until_time = 50.0
+output_interval = 1.0
+"""
+
+
+def test_issue_example_config(tmp_path, dim):
+    p = tmp_path / "c.toml"
+    p.write_text(ISSUE_EXAMPLE.format(dim=dim))
+    cfg = load_config(p)
+    s = build_state(cfg)
+    assert (s.n, s.dim) == (4000, dim)
+    assert s.packing_fraction == pytest.approx(0.3)
+    assert s.temperature() == pytest.approx(1.0)
+
+
+def test_example_file_parses_and_round_trips(tmp_path):
+    p = tmp_path / "e.toml"
+    p.write_text(EXAMPLE)
+    cfg = load_config(p)
+    assert cfg == Config()
+    p.write_text(dump_config(cfg))
+    assert load_config(p) == cfg
+
+
+def test_typo_is_named_with_a_suggestion():
+    with pytest.raises(ConfigError, match=r"system.pakcing_fraction: unknown key \(did you mean 'packing_fraction'\?\)"):
+        parse_config({"system": {"pakcing_fraction": 0.3}})
+    with pytest.raises(ConfigError, match=r"systme: unknown key \(did you mean 'system'\?\)"):
+        parse_config({"systme": {}})
+
+
+@pytest.mark.parametrize(
+    "data, match",
+    [
+        ({"system": {"packing_fraction": 1.2}}, "system.packing_fraction: Input should be less than 1"),
+        ({"system": {"n": -5}}, "system.n"),
+        ({"system": {"dim": 4}}, "system.dim"),
+        ({"system": {"radius": -0.5}}, "system.radius"),
+        ({"system": {"radius": {"kind": "uniform", "min": 0.4}}}, "needs max"),
+        ({"system": {"dim": 2, "lattice": "fcc"}}, "does not exist in 2D"),
+        ({"collision": {"e_n": 0.9}}, "use rule = 'inelastic'"),
+        ({"run": {"until_time": "soon"}}, "run.until_time"),
+        ({"engine": {"neighbours": "octree"}}, "engine.neighbours"),
+    ],
+)
+def test_invalid_values_are_named(data, match):
+    with pytest.raises(ConfigError, match=match):
+        parse_config(data)
+
+
+def test_unreadable_files(tmp_path):
+    with pytest.raises(ConfigError, match="cannot read config file"):
+        load_config(tmp_path / "nope.toml")
+    p = tmp_path / "broken.toml"
+    p.write_text("[system\nn = 3")
+    with pytest.raises(ConfigError, match="is not valid TOML"):
+        load_config(p)
+
+
+def test_polydisperse_config(dim):
+    cfg = parse_config(
+        {"system": {"dim": dim, "n": 200, "packing_fraction": 0.1, "init": "random", "radius": {"kind": "uniform", "min": 0.4, "max": 0.6}, "density": 1.0}}
+    )
+    s = build_state(cfg)
+    assert s.radius.min() >= 0.4 and s.radius.max() <= 0.6
+    assert isinstance(s, edmd.State)

@@ -1,0 +1,48 @@
+"""Thermo output: columns, pressure formula, CSV round trip."""
+
+import math
+
+import numpy as np
+import pytest
+
+import edmd
+from edmd import Simulation, Thermo, read_thermo
+from edmd.thermo import pressure
+
+
+def test_ideal_gas_pressure_formula(dim):
+    # no collisions in the window: P = n T exactly (physics.md §5.3 with zero virial)
+    s = edmd.maxwell_boltzmann(edmd.lattice(100, 0.01, dim=dim), 1.3, seed=1)
+    p = pressure(s, d_kinetic_integral=s.kinetic_energy() * 2.0, d_virial=0.0, dt=2.0)
+    assert p == pytest.approx(s.n / s.volume * 1.3, rel=1e-12)
+
+
+def test_thermo_rows_and_csv(tmp_path, dim):
+    sim = Simulation(edmd.maxwell_boltzmann(edmd.lattice(300, 0.3, dim=dim), 1.0, seed=2))
+    th = sim.add(Thermo(0.5, path=tmp_path / "thermo.csv"))
+    sim.run(until_time=2.0)
+    sim.close()
+    table = read_thermo(tmp_path / "thermo.csv")
+    for col in ("time", "events", "collisions", "temperature", "pressure", "collision_rate", "kinetic_energy"):
+        assert col in table
+    assert table["time"].tolist() == [0.0, 0.5, 1.0, 1.5, 2.0]
+    assert math.isnan(table["pressure"][0]) and np.all(table["pressure"][1:] > 0)
+    assert np.allclose(table["temperature"], 1.0, rtol=1e-12)
+    assert np.array_equal(table["collisions"], [r["collisions"] for r in th.rows])
+    assert table["collision_rate"][-1] == pytest.approx(
+        2 * (table["collisions"][-1] - table["collisions"][-2]) / (300 * 0.5), rel=1e-12
+    )
+
+
+def test_pressure_survives_resyncs(dim):
+    # the cumulative kinetic-energy integral is carried across maintenance resyncs
+    runs = []
+    for resync in (1e9, 0.5):
+        sim = Simulation(edmd.maxwell_boltzmann(edmd.lattice(300, 0.3, dim=dim), 1.0, seed=3), engine={"resync_every": resync})
+        th = sim.add(Thermo(1.0))
+        sim.run(until_time=3.0)
+        runs.append(th.table()["pressure"][1:])
+    assert np.allclose(runs[0], runs[1], rtol=0.05)
+    s = edmd.lattice(300, 0.3, dim=dim)
+    ideal = s.n / s.volume
+    assert np.all(runs[1] > ideal)
