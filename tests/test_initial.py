@@ -48,7 +48,7 @@ def test_random_packing_polydisperse(dim):
 
 def test_random_packing_too_dense_fails_clearly():
     with pytest.raises(StateError, match="random insertion failed"):
-        random_packing(500, 0.6, dim=3, max_attempts=50)
+        random_packing(500, 0.6, dim=3, max_attempts=50, method="insert")
 
 
 def test_reproducible_from_seed(dim):
