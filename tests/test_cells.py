@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from edmd._core.cells import cell_block, crossing_time, grid_shape, new_grid
+from edmd._core.layout import make_geo
 
 
 def _coords(c, nc):
@@ -19,7 +20,7 @@ def test_cell_block_is_the_full_neighbourhood(nc, periodic):
     grid = new_grid(1, box, np.array(nc))
     out = np.empty(27, np.int32)
     for c in range(int(np.prod(nc))):
-        got = sorted(out[: cell_block(grid, c, half, out, -1, 0)].tolist())
+        got = sorted(out[: cell_block(grid, c, make_geo(box, half), out, -1, 0)].tolist())
         cc = _coords(c, nc)
         want = set()
         for off in itertools.product((-1, 0, 1), repeat=3):
@@ -45,9 +46,9 @@ def test_layer_after_crossing_is_the_new_neighbourhood_part():
     grid = new_grid(1, box, nc)
     out = np.empty(27, np.int32)
     old, new = 62, 62 + 25  # +x neighbour
-    full_old = set(out[: cell_block(grid, old, half, out, -1, 0)].tolist())
-    full_new = set(out[: cell_block(grid, new, half, out, -1, 0)].tolist())
-    layer = set(out[: cell_block(grid, new, half, out, 0, 1)].tolist())
+    full_old = set(out[: cell_block(grid, old, make_geo(box, half), out, -1, 0)].tolist())
+    full_new = set(out[: cell_block(grid, new, make_geo(box, half), out, -1, 0)].tolist())
+    layer = set(out[: cell_block(grid, new, make_geo(box, half), out, 0, 1)].tolist())
     assert layer == full_new - full_old
     assert len(layer) == 9
 

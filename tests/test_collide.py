@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 from edmd._core.collide import collide_smooth
-from edmd._core.layout import A_DISSIPATED, A_KE, A_VIRIAL, N_ACC, ROW
+from edmd._core.layout import A_DISSIPATED, A_KE, A_VIRIAL, N_ACC, ROW, make_geo
 
 BOX = np.array([100.0, 100.0, 100.0])
-HALF = 0.5 * BOX
+GEO = make_geo(BOX, 0.5 * BOX)
 
 
 def pair(r1, r2, v1, v2, R=(0.5, 0.5)):
@@ -23,7 +23,7 @@ def test_w2_unequal_masses(e_n, v1, v2, dE):
     # physics.md W2: m = (1, 3), v = (2, -1), r2 - r1 = (1, 0, 0); e_n = 1 is the elastic case
     P = pair([0, 0, 0], [1, 0, 0], [2, 0, 0], [-1, 0, 0])
     acc = np.zeros(N_ACC)
-    vn, vt = collide_smooth(P, np.array([1.0, 3.0]), 0, 1, e_n, BOX, HALF, acc)
+    vn, vt = collide_smooth(P, np.array([1.0, 3.0]), 0, 1, e_n, GEO, acc)
     assert P[0, 3:6] == pytest.approx([v1, 0, 0], abs=1e-14)
     assert P[1, 3:6] == pytest.approx([v2, 0, 0], abs=1e-14)
     assert acc[A_KE] == pytest.approx(dE, abs=1e-14)
@@ -36,7 +36,7 @@ def test_w2_unequal_masses(e_n, v1, v2, dE):
 def test_t5_oblique_elastic_equal_masses():
     # physics.md W3 / T5
     P = pair([0, 0, 0], [np.sqrt(3) / 2, 0.5, 0], [1, 0, 0], [0, 0, 0])
-    collide_smooth(P, np.ones(2), 0, 1, 1.0, BOX, HALF, np.zeros(N_ACC))
+    collide_smooth(P, np.ones(2), 0, 1, 1.0, GEO, np.zeros(N_ACC))
     assert P[0, 3:6] == pytest.approx([0.25, -0.4330127, 0], abs=1e-7)
     assert P[1, 3:6] == pytest.approx([0.75, 0.4330127, 0], abs=1e-7)
 
@@ -44,7 +44,7 @@ def test_t5_oblique_elastic_equal_masses():
 def test_collision_through_the_periodic_boundary():
     # i near +L/2, j near -L/2: the minimum image gives the normal (+x)
     P = pair([49.6, 0, 0], [-49.4, 0, 0], [1, 0, 0], [-1, 0, 0])
-    collide_smooth(P, np.ones(2), 0, 1, 1.0, BOX, HALF, np.zeros(N_ACC))
+    collide_smooth(P, np.ones(2), 0, 1, 1.0, GEO, np.zeros(N_ACC))
     assert P[0, 3:6] == pytest.approx([-1, 0, 0])
     assert P[1, 3:6] == pytest.approx([1, 0, 0])
 
@@ -65,7 +65,7 @@ def test_random_collisions_conserve_momentum_and_angular_momentum(rng, dim):
         e = rng.uniform(0.3, 1.0)
         acc = np.zeros(N_ACC)
         before = P.copy()
-        collide_smooth(P, m, 0, 1, e, BOX, HALF, acc)
+        collide_smooth(P, m, 0, 1, e, GEO, acc)
         p0 = m @ before[:, 3:6]
         assert np.allclose(m @ P[:, 3:6], p0, atol=1e-13 * np.abs(m[:, None] * v).sum())
         L0 = sum(m[k] * np.cross(before[k, :3], before[k, 3:6]) for k in range(2))

@@ -76,13 +76,13 @@ class Engine:
         self.periodic = state.periodic.copy()
         self.box_user = state.box.copy()
         self.box, self.half = state.geometry()
-        self.grav = np.zeros(4)
+        self.grav = np.zeros(3)
         if gravity is not None:
             g = np.asarray(gravity, float)
             if g.shape != (self.dim,) or not np.all(np.isfinite(g)):
                 raise ValueError(f"gravity must be {self.dim} finite numbers, got {gravity!r}")
             self.grav[: self.dim] = g
-            self.grav[3] = float(np.any(g != 0))
+        self.geo = L.make_geo(self.box, self.half, self.grav)
         self.fp = np.zeros(L.N_FP)
         self.ip = np.zeros(L.N_IP, np.int64)
         self.fp[L.FP_EN] = e_n
@@ -176,7 +176,7 @@ class Engine:
     def _rebuild(self):
         """Bin, build neighbour lists and the calendar for particles all at local time 0."""
         n = self.n
-        geo = (self.box, self.half, self.grav)
+        geo = self.geo
         while True:
             self.grid = new_grid(n, self.box, self.grid_cells)
             cap = max(self.list_capacity, 1) if self.mode == "list" else 1
@@ -191,7 +191,7 @@ class Engine:
         queue_build(self.q, keys, 0.0, width, nb)
         self.acc[L.A_NOW] = 0.0
         self.acc[L.A_LAST_T] = 0.0
-        self.acc[L.A_KE] = kinetic_energy_at(self.part[0], self.part[1], 0.0, self.grav)
+        self.acc[L.A_KE] = kinetic_energy_at(self.part[0], self.part[1], 0.0, self.geo)
         self.events_at_sync = int(self.cnt[L.C_EVENTS])
 
     # ------------------------------------------------------------------ running
@@ -205,7 +205,7 @@ class Engine:
 
         Returns the status code of the last loop call (``ST_TIME``, ``ST_EVENTS`` or ``ST_IDLE``).
         """
-        geo = (self.box, self.half, self.grav)
+        geo = self.geo
         budget = max_events
         interval = max(int(self.options.resync_every * self.n), 1)
         while True:
@@ -244,7 +244,7 @@ class Engine:
     # ------------------------------------------------------------------ observation
     def stream(self, t: float):
         """Internal-order positions (wrapped), velocities and images at absolute time ``t``."""
-        pos, vel, image = stream_all(self.part[0], self.part[4], t - self.t_origin, self.box, self.half, self.grav)
+        pos, vel, image = stream_all(self.part[0], self.part[4], t - self.t_origin, self.geo)
         return pos, vel, image
 
     def snapshot(self, t: float | None = None) -> State:

@@ -12,6 +12,7 @@ import numpy as np
 
 from ._core.cells import grid_shape, new_grid
 from ._core.geometry import random_insert, relax_overlaps
+from ._core.layout import make_geo
 from .state import State, StateError
 
 LATTICES = {2: ("hex", "square"), 3: ("fcc", "sc")}
@@ -226,6 +227,7 @@ def random_packing(
     box3[:dim] = box
     half = np.full(3, np.inf)
     half[:dim] = 0.5 * box
+    geo = make_geo(box3, half)
     nc = grid_shape(box3, np.r_[np.ones(dim, bool), np.zeros(3 - dim, bool)], 2.0 * r.max())
     grid = new_grid(n, box3, nc)
     pos3 = np.zeros((n, 3))
@@ -234,7 +236,7 @@ def random_packing(
         method = "relax"  # insertion slows down long before it jams
     while placed < n and attempts < max_attempts and method != "relax":
         uniforms = rng.random((min(n - placed, 4096), batch, 3))
-        first_failed = random_insert(r, box3, half, grid, pos3, uniforms, placed, dim)
+        first_failed = random_insert(r, geo, grid, pos3, uniforms, placed, dim)
         attempts = attempts + batch if first_failed == placed else 0
         placed = first_failed
     if placed < n:
@@ -246,7 +248,7 @@ def random_packing(
         pos3[placed:, :dim] = (rng.random((n - placed, dim)) - 0.5) * box
         inflate = 1.0 + 2e-3
         nc = grid_shape(box3, np.r_[np.ones(dim, bool), np.zeros(3 - dim, bool)], 2.0 * r.max() * inflate)
-        sweeps = relax_overlaps(pos3, r, box3, half, new_grid(n, box3, nc), inflate, 0.3, 20000, dim)
+        sweeps = relax_overlaps(pos3, r, geo, new_grid(n, box3, nc), inflate, 0.3, 20000, dim)
         if sweeps > 20000:
             raise StateError(
                 f"could not remove the overlaps of a random packing at packing fraction {packing_fraction} "

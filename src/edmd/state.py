@@ -9,6 +9,7 @@ import numpy as np
 
 from ._core.cells import grid_shape, new_grid
 from ._core.geometry import worst_overlap
+from ._core.layout import make_geo
 
 #: relative overlap tolerated as round-off (contacts from a running simulation sit at |r| = sigma)
 OVERLAP_TOLERANCE = 1e-9
@@ -139,7 +140,7 @@ class State:
         sigma_max = 2.0 * float(self.radius.max())
         nc = grid_shape(box, np.r_[self.periodic, [False] * (3 - self.dim)], sigma_max)
         grid = new_grid(self.n, box, nc)
-        i, j, d = worst_overlap(self.points, self.radius, box, half, grid, rel_tol)
+        i, j, d = worst_overlap(self.points, self.radius, make_geo(box, half), grid, rel_tol)
         return None if i < 0 else (int(i), int(j), float(d))
 
     def check_no_overlap(self, rel_tol: float = OVERLAP_TOLERANCE):

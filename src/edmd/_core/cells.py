@@ -10,7 +10,7 @@ exactly one (then the neighbour search does not look along it); an open axis any
 import math
 
 import numpy as np
-from numba import njit
+from .jit import hot
 
 from .predict import INF, gap_time
 
@@ -45,7 +45,7 @@ def new_grid(n, box, nc):
     )
 
 
-@njit(cache=True, inline="always")
+@hot
 def _axis_cell(x, length, inv, nc):
     if nc == 1:
         return 0
@@ -57,17 +57,17 @@ def _axis_cell(x, length, inv, nc):
     return c
 
 
-@njit(cache=True, inline="always")
-def cell_of_point(x, y, z, box, grid):
+@hot
+def cell_of_point(x, y, z, geo, grid):
     gi = grid[3]
     gf = grid[4]
-    cx = _axis_cell(x, box[0], gf[3], gi[0])
-    cy = _axis_cell(y, box[1], gf[4], gi[1])
-    cz = _axis_cell(z, box[2], gf[5], gi[2])
+    cx = _axis_cell(x, geo[0], gf[3], gi[0])
+    cy = _axis_cell(y, geo[1], gf[4], gi[1])
+    cz = _axis_cell(z, geo[2], gf[5], gi[2])
     return (cx * gi[1] + cy) * gi[2] + cz
 
 
-@njit(cache=True, inline="always")
+@hot
 def cell_insert(grid, i, c):
     head, nxt, cell = grid[0], grid[1], grid[2]
     nxt[i] = head[c]
@@ -75,7 +75,7 @@ def cell_insert(grid, i, c):
     cell[i] = c
 
 
-@njit(cache=True, inline="always")
+@hot
 def cell_remove(grid, i):
     head, nxt, cell = grid[0], grid[1], grid[2]
     c = cell[i]
@@ -91,7 +91,7 @@ def cell_remove(grid, i):
         k = s
 
 
-@njit(cache=True, inline="always")
+@hot
 def _offsets(k, nc, axis, step):
     """Offsets searched on axis ``k``: the crossing direction only on ``axis``, else -1..1."""
     if k == axis:
@@ -101,7 +101,7 @@ def _offsets(k, nc, axis, step):
     return -1, 1
 
 
-@njit(cache=True, inline="always")
+@hot
 def _shift(c, o, nc, periodic):
     """Neighbour coordinate ``c + o`` on one axis, or ``-1`` beyond an open edge."""
     c2 = c + o
@@ -112,8 +112,8 @@ def _shift(c, o, nc, periodic):
     return c2
 
 
-@njit(cache=True, inline="always")
-def cell_block(grid, c, half, out, axis, step):
+@hot
+def cell_block(grid, c, geo, out, axis, step):
     """Write cells around ``c`` into ``out`` (each once) and return their number.
 
     ``axis = -1``: the full neighbourhood of ``c``, itself included. Otherwise the layer beyond
@@ -126,7 +126,7 @@ def cell_block(grid, c, half, out, axis, step):
     cz = c % nz
     cy = (c // nz) % ny
     cx = c // (nz * ny)
-    px, py, pz = half[0] < INF, half[1] < INF, half[2] < INF
+    px, py, pz = geo[3] < INF, geo[4] < INF, geo[5] < INF
     lox, hix = _offsets(0, nx, axis, step)
     loy, hiy = _offsets(1, ny, axis, step)
     loz, hiz = _offsets(2, nz, axis, step)
@@ -148,7 +148,7 @@ def cell_block(grid, c, half, out, axis, step):
     return n
 
 
-@njit(cache=True, inline="always")
+@hot
 def crossing_time(x, v, g, c_axis, nc, length, cell_len, periodic):
     """Time and face (0 lower, 1 upper) of the next crossing out of cell ``c_axis`` on one axis.
 

@@ -7,27 +7,25 @@ kinetic-energy change to the accumulators, and returns the normal and tangential
 
 import math
 
-from numba import njit
+from .jit import hot
 
 from .layout import A_DISSIPATED, A_KE, A_VIRIAL, VX, VY, VZ, X, Y, Z
-from .predict import wrap_delta
+from .predict import wrap3
 
 RULE_SMOOTH = 0
 
 
-@njit(cache=True, inline="always")
-def contact_normal(P, i, j, box, half):
+@hot
+def contact_normal(P, i, j, geo):
     """Unit normal from ``j`` to ``i`` and the centre distance (minimum image)."""
-    dx = wrap_delta(P[i, X] - P[j, X], box[0], half[0])
-    dy = wrap_delta(P[i, Y] - P[j, Y], box[1], half[1])
-    dz = wrap_delta(P[i, Z] - P[j, Z], box[2], half[2])
+    dx, dy, dz = wrap3(P[i, X] - P[j, X], P[i, Y] - P[j, Y], P[i, Z] - P[j, Z], geo)
     r = math.sqrt(dx * dx + dy * dy + dz * dz)
     inv = 1.0 / r
     return dx * inv, dy * inv, dz * inv, r
 
 
-@njit(cache=True, inline="always")
-def collide_smooth(P, mass, i, j, e_n, box, half, acc):
+@hot
+def collide_smooth(P, mass, i, j, e_n, geo, acc):
     r"""Smooth spheres with constant normal restitution, arbitrary masses (physics.md §2.1).
 
     .. math::
@@ -38,7 +36,7 @@ def collide_smooth(P, mass, i, j, e_n, box, half, acc):
     Returns the normal impact speed :math:`v_n = -\mathbf g\cdot\hat{\mathbf n}` and the
     tangential speed :math:`v_t`. A pair that is not approaching is left untouched.
     """
-    nx, ny, nz, r = contact_normal(P, i, j, box, half)
+    nx, ny, nz, r = contact_normal(P, i, j, geo)
     gx = P[i, VX] - P[j, VX]
     gy = P[i, VY] - P[j, VY]
     gz = P[i, VZ] - P[j, VZ]

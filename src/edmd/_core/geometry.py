@@ -1,14 +1,14 @@
 """Whole-system geometry helpers: overlap search and spatial ordering (compiled)."""
 
 import numpy as np
-from numba import njit
+from .jit import jit
 
 from .cells import cell_block, cell_insert, cell_of_point
-from .predict import wrap_delta
+from .predict import wrap3
 
 
-@njit(cache=True)
-def worst_overlap(pos, radius, box, half, grid, rel_tol):
+@jit
+def worst_overlap(pos, radius, geo, grid, rel_tol):
     """Return ``(i, j, distance)`` of the deepest overlap beyond ``rel_tol`` (``-1, -1, 0`` if none).
 
     ``pos`` is ``(N, 3)``; ``grid`` must have cells of edge at least the largest contact distance.
@@ -17,18 +17,16 @@ def worst_overlap(pos, radius, box, half, grid, rel_tol):
     head, nxt = grid[0], grid[1]
     head[:] = -1
     for i in range(n):
-        cell_insert(grid, i, cell_of_point(pos[i, 0], pos[i, 1], pos[i, 2], box, grid))
+        cell_insert(grid, i, cell_of_point(pos[i, 0], pos[i, 1], pos[i, 2], geo, grid))
     cbuf = np.empty(27, np.int32)
     bi, bj, worst, bd = -1, -1, 0.0, 0.0
     for i in range(n):
-        nc = cell_block(grid, grid[2][i], half, cbuf, -1, 0)
+        nc = cell_block(grid, grid[2][i], geo, cbuf, -1, 0)
         for s in range(nc):
             j = head[cbuf[s]]
             while j >= 0:
                 if j > i:
-                    dx = wrap_delta(pos[i, 0] - pos[j, 0], box[0], half[0])
-                    dy = wrap_delta(pos[i, 1] - pos[j, 1], box[1], half[1])
-                    dz = wrap_delta(pos[i, 2] - pos[j, 2], box[2], half[2])
+                    dx, dy, dz = wrap3(pos[i, 0] - pos[j, 0], pos[i, 1] - pos[j, 1], pos[i, 2] - pos[j, 2], geo)
                     sig = radius[i] + radius[j]
                     d = np.sqrt(dx * dx + dy * dy + dz * dz)
                     depth = 1.0 - d / sig
@@ -38,8 +36,8 @@ def worst_overlap(pos, radius, box, half, grid, rel_tol):
     return bi, bj, bd
 
 
-@njit(cache=True)
-def random_insert(radius, box, half, grid, pos, uniforms, start, dim):
+@jit
+def random_insert(radius, geo, grid, pos, uniforms, start, dim):
     """Sequentially place particles ``start, start+1, ...`` at random without overlap.
 
     ``uniforms[p - start, a, :dim]`` are the uniform numbers of attempt ``a`` for particle ``p``;
@@ -54,17 +52,15 @@ def random_insert(radius, box, half, grid, pos, uniforms, start, dim):
         ok = False
         for a in range(u.shape[0]):
             for k in range(3):
-                pos[p, k] = (u[a, k] - 0.5) * box[k] if k < dim else 0.0
-            c = cell_of_point(pos[p, 0], pos[p, 1], pos[p, 2], box, grid)
+                pos[p, k] = (u[a, k] - 0.5) * geo[k] if k < dim else 0.0
+            c = cell_of_point(pos[p, 0], pos[p, 1], pos[p, 2], geo, grid)
             grid[2][p] = c
             ok = True
-            nc = cell_block(grid, c, half, cbuf, -1, 0)
+            nc = cell_block(grid, c, geo, cbuf, -1, 0)
             for s in range(nc):
                 j = head[cbuf[s]]
                 while j >= 0 and ok:
-                    dx = wrap_delta(pos[p, 0] - pos[j, 0], box[0], half[0])
-                    dy = wrap_delta(pos[p, 1] - pos[j, 1], box[1], half[1])
-                    dz = wrap_delta(pos[p, 2] - pos[j, 2], box[2], half[2])
+                    dx, dy, dz = wrap3(pos[p, 0] - pos[j, 0], pos[p, 1] - pos[j, 1], pos[p, 2] - pos[j, 2], geo)
                     sig = radius[p] + radius[j]
                     if dx * dx + dy * dy + dz * dz < sig * sig:
                         ok = False
@@ -79,8 +75,8 @@ def random_insert(radius, box, half, grid, pos, uniforms, start, dim):
     return n
 
 
-@njit(cache=True)
-def relax_overlaps(pos, radius, box, half, grid, inflate, step, max_iter, dim):
+@jit
+def relax_overlaps(pos, radius, geo, grid, inflate, step, max_iter, dim):
     """Push overlapping particles apart by steepest descent on a harmonic overlap energy.
 
     Minimises :math:`\\sum_{ij}(\\sigma'_{ij} - r_{ij})^2` over overlapping pairs with radii
@@ -97,22 +93,20 @@ def relax_overlaps(pos, radius, box, half, grid, inflate, step, max_iter, dim):
         head[:] = -1
         for i in range(n):
             for k in range(dim):
-                if pos[i, k] >= half[k]:
-                    pos[i, k] -= box[k]
-                elif pos[i, k] < -half[k]:
-                    pos[i, k] += box[k]
-            cell_insert(grid, i, cell_of_point(pos[i, 0], pos[i, 1], pos[i, 2], box, grid))
+                if pos[i, k] >= geo[3 + k]:
+                    pos[i, k] -= geo[k]
+                elif pos[i, k] < -geo[3 + k]:
+                    pos[i, k] += geo[k]
+            cell_insert(grid, i, cell_of_point(pos[i, 0], pos[i, 1], pos[i, 2], geo, grid))
         push[:] = 0.0
         worst = 0.0
         for i in range(n):
-            nc = cell_block(grid, grid[2][i], half, cbuf, -1, 0)
+            nc = cell_block(grid, grid[2][i], geo, cbuf, -1, 0)
             for s in range(nc):
                 j = head[cbuf[s]]
                 while j >= 0:
                     if j > i:
-                        dx = wrap_delta(pos[i, 0] - pos[j, 0], box[0], half[0])
-                        dy = wrap_delta(pos[i, 1] - pos[j, 1], box[1], half[1])
-                        dz = wrap_delta(pos[i, 2] - pos[j, 2], box[2], half[2])
+                        dx, dy, dz = wrap3(pos[i, 0] - pos[j, 0], pos[i, 1] - pos[j, 1], pos[i, 2] - pos[j, 2], geo)
                         sig = (radius[i] + radius[j]) * inflate
                         r2 = dx * dx + dy * dy + dz * dz
                         if r2 < sig * sig:

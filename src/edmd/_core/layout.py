@@ -44,3 +44,14 @@ N_IP = 8
 # float parameters (fp array)
 FP_SKIN, FP_EN, FP_DEBUG_TOL = 0, 1, 2
 N_FP = 16
+
+# geometry scalars passed to the compiled core as one tuple of floats (no array references
+# travel into hot helpers): box lengths, minimum-image half lengths (inf on open axes),
+# gravity, and a gravity flag.
+G_LX, G_LY, G_LZ, G_HX, G_HY, G_HZ, G_GX, G_GY, G_GZ, G_ON = range(10)
+
+
+def make_geo(box, half, grav=None):
+    """The ``geo`` tuple from 3-component box and half-length arrays and optional gravity."""
+    g = [0.0, 0.0, 0.0] if grav is None else [float(x) for x in grav[:3]]
+    return (*(float(x) for x in box), *(float(x) for x in half), *g, float(any(x != 0.0 for x in g)))

@@ -14,105 +14,118 @@ Particles are streamed lazily: only those taking part in an event are advanced.
 
 Array bundles (tuples, no objects): ``part = (P, mass, omega, inertia, image, count)``,
 ``ev = (pair_t, pair_j, pair_c, aux_t, aux_k)``, ``q`` (see :mod:`.queue`), ``grid`` (see
-:mod:`.cells`), ``lists`` (see :mod:`.nblist`), ``geo = (box, half, grav)``.
+:mod:`.cells`), ``lists`` (see :mod:`.nblist`), ``geo`` (floats, see :func:`.layout.make_geo`).
 """
 
 import numpy as np
-from numba import njit
+from .jit import hot, jit
 
 from . import layout as L
 from .cells import cell_block, cell_insert, cell_of_point, cell_remove, crossing_time
 from .collide import collide_smooth
 from .nblist import build_lists, rebuild_list, shell_exit_time
-from .predict import INF, advance, pair_time, separation
+from .predict import INF, advance, contact_time, flight, relative_to, separation
 from .queue import queue_top, queue_update
 
 _I32 = np.int32
 
 
-@njit(cache=True, inline="always")
+@hot
 def _set_pair(ev, count, i, t, j):
     ev[0][i] = t
     ev[1][i] = j
     ev[2][i] = count[j]
 
 
-@njit(cache=True)
+@hot
+def _closer(xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, best, bj):
+    """The earlier of the current best ``(dt, partner)`` and a contact with ``j``."""
+    dx, dy, dz, gx, gy, gz = relative_to(xi, yi, zi, vxi, vyi, vzi, P, j, t, geo)
+    dt = contact_time(dx, dy, dz, gx, gy, gz, ri + P[j, L.R])
+    if dt < best:
+        return dt, j
+    return best, bj
+
+
+@jit
 def _scan_cells(i, t, P, count, ev, grid, geo, cbuf, axis, step):
     """Improve the pair event of ``i`` with the particles of a block of cells (see ``cell_block``)."""
-    box, half, grav = geo
     head, nxt = grid[0], grid[1]
-    best = ev[0][i]
-    nc = cell_block(grid, grid[2][i], half, cbuf, axis, step)
+    xi, yi, zi, vxi, vyi, vzi = flight(P, i, t, geo)
+    ri = P[i, L.R]
+    best = ev[0][i] - t
+    bj = -1
+    nc = cell_block(grid, grid[2][i], geo, cbuf, axis, step)
     for s in range(nc):
         j = head[cbuf[s]]
         while j >= 0:
             if j != i:
-                tj = pair_time(P, i, j, t, box, half, grav)
-                if tj < best:
-                    best = tj
-                    _set_pair(ev, count, i, tj, j)
+                best, bj = _closer(xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, best, bj)
             j = nxt[j]
+    if bj >= 0:
+        _set_pair(ev, count, i, t + best, bj)
 
 
-@njit(cache=True, inline="always")
+@hot
 def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf):
     """Full re-prediction of the earliest contact of ``i`` (neighbour list or 3^d cells)."""
-    box, half, grav = geo
-    ev[0][i] = INF
-    ev[1][i] = -1
     if mode == L.NB_LIST:
         nbl, nbl_n = lists[0], lists[1]
+        xi, yi, zi, vxi, vyi, vzi = flight(P, i, t, geo)
+        ri = P[i, L.R]
         best = INF
+        bj = -1
         for s in range(nbl_n[i]):
-            j = nbl[i, s]
-            tj = pair_time(P, i, j, t, box, half, grav)
-            if tj < best:
-                best = tj
-                _set_pair(ev, count, i, tj, j)
-    else:
+            best, bj = _closer(xi, yi, zi, vxi, vyi, vzi, ri, P, nbl[i, s], t, geo, best, bj)
+        if bj >= 0:
+            _set_pair(ev, count, i, t + best, bj)
+            return
+    ev[0][i] = INF
+    ev[1][i] = -1
+    if mode != L.NB_LIST:
         _scan_cells(i, t, P, count, ev, grid, geo, cbuf, -1, 0)
 
 
-@njit(cache=True)
-def predict_aux(i, t, P, ev, grid, lists, geo, mode, fp):
-    """Earliest single-particle event of ``i``: shell exit (lists) or cell crossing (cells)."""
-    box, half, grav = geo
+@jit
+def _crossing_event(i, t, P, ev, grid, geo):
+    """Earliest cell-face crossing of ``i`` (physics.md §1.4)."""
+    gi, gf = grid[3], grid[4]
+    c = grid[2][i]
+    ncy, ncz = gi[1], gi[2]
+    coords = (c // (ncy * ncz), (c // ncz) % ncy, c % ncz)
+    xs = flight(P, i, t, geo)
     best = INF
     kind = L.AUX_NONE
-    if mode == L.NB_LIST:
-        best = shell_exit_time(P, i, t, lists, box, half, grav, fp[L.FP_SKIN])
-        kind = L.AUX_SHELL
-    else:
-        gi, gf = grid[3], grid[4]
-        c = grid[2][i]
-        ncy, ncz = gi[1], gi[2]
-        coords = (c // (ncy * ncz), (c // ncz) % ncy, c % ncz)
-        dt = t - P[i, L.T]
-        for k in range(3):
-            v = P[i, L.VX + k] + grav[k] * dt
-            x = P[i, L.X + k] + P[i, L.VX + k] * dt + 0.5 * grav[k] * dt * dt
-            tk, face = crossing_time(x, v, grav[k], coords[k], gi[k], box[k], gf[k], half[k] < INF)
-            if tk < best:
-                best = tk
-                kind = L.AUX_CELL + 2 * k + face
-        best += t
-    ev[3][i] = best
+    for k in range(3):
+        tk, face = crossing_time(xs[k], xs[3 + k], geo[L.G_GX + k], coords[k], gi[k], geo[k], gf[k], geo[3 + k] < INF)
+        if tk < best:
+            best = tk
+            kind = L.AUX_CELL + 2 * k + face
+    ev[3][i] = t + best
     ev[4][i] = kind
 
 
-@njit(cache=True, inline="always")
+@hot
+def predict_aux(i, t, P, ev, grid, lists, geo, mode, fp):
+    """Earliest single-particle event of ``i``: shell exit (lists) or cell crossing (cells)."""
+    if mode == L.NB_LIST:
+        ev[3][i] = shell_exit_time(P, i, t, lists, geo, fp[L.FP_SKIN])
+        ev[4][i] = L.AUX_SHELL
+    else:
+        _crossing_event(i, t, P, ev, grid, geo)
+
+
+@hot
 def _requeue(q, ev, i):
     a = ev[3][i]
     p = ev[0][i]
     queue_update(q, i, a if a <= p else p)
 
 
-@njit(cache=True, inline="always")
+@hot
 def _bad_contact(p, k, t, P, geo, tol, acc, cnt, exact):
     """Record ``(p, k)`` if they overlap (or, with ``exact``, do not touch) beyond ``tol``."""
-    box, half, grav = geo
-    dx, dy, dz, gx, gy, gz = separation(P, p, k, t, box, half, grav)
+    dx, dy, dz, gx, gy, gz = separation(P, p, k, t, geo)
     err = 1.0 - np.sqrt(dx * dx + dy * dy + dz * dz) / (P[p, L.R] + P[k, L.R])
     if exact:
         err = abs(err)
@@ -122,7 +135,7 @@ def _bad_contact(p, k, t, P, geo, tol, acc, cnt, exact):
     return False
 
 
-@njit(cache=True)
+@jit
 def _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf):
     """Debug mode: the colliding pair touches (|r_ij| = sigma) and neither partner overlaps a candidate.
 
@@ -137,7 +150,7 @@ def _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf):
                 if _bad_contact(p, lists[0][p, s], t, P, geo, tol, acc, cnt, False):
                     return False
         else:
-            nc = cell_block(grid, grid[2][p], geo[1], cbuf, -1, 0)
+            nc = cell_block(grid, grid[2][p], geo, cbuf, -1, 0)
             for s in range(nc):
                 k = grid[0][cbuf[s]]
                 while k >= 0:
@@ -147,7 +160,7 @@ def _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf):
     return True
 
 
-@njit(cache=True, inline="always")
+@hot
 def _repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, cbuf):
     """Both candidate events of ``i`` after its flight changed, and its calendar key."""
     predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
@@ -155,10 +168,9 @@ def _repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, cbuf):
     _requeue(q, ev, i)
 
 
-@njit(cache=True)
+@jit
 def _cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf):
     """Move ``i`` into the neighbouring cell (by direction, never by flooring) and scan the new layer."""
-    box, half, grav = geo
     gi = grid[3]
     k = (kind - L.AUX_CELL) >> 1
     step = 1 if (kind - L.AUX_CELL) & 1 else -1
@@ -168,11 +180,11 @@ def _cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf):
     ck = (cx, cy, cz)[k] + step
     if ck == gi[k]:
         ck = 0
-        P[i, L.X + k] -= box[k]
+        P[i, L.X + k] -= geo[k]
         image[i, k] += 1
     elif ck < 0:
         ck = gi[k] - 1
-        P[i, L.X + k] += box[k]
+        P[i, L.X + k] += geo[k]
         image[i, k] -= 1
     if k == 0:
         cx = ck
@@ -185,20 +197,21 @@ def _cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf):
     _scan_cells(i, t, P, count, ev, grid, geo, cbuf, k, step)
 
 
-@njit(cache=True, inline="always")
-def _wrap_into_box(P, image, i, box, half):
+@hot
+def _wrap_into_box(P, image, i, geo):
     for k in range(3):
-        if half[k] < INF:
+        half = geo[3 + k]
+        if half < INF:
             x = P[i, L.X + k]
-            if x >= half[k]:
-                P[i, L.X + k] = x - box[k]
+            if x >= half:
+                P[i, L.X + k] = x - geo[k]
                 image[i, k] += 1
-            elif x < -half[k]:
-                P[i, L.X + k] = x + box[k]
+            elif x < -half:
+                P[i, L.X + k] = x + geo[k]
                 image[i, k] -= 1
 
 
-@njit(cache=True)
+@jit
 def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, t_stop, max_events):
     """Process events in time order until ``t_stop`` (exclusive) or ``max_events``.
 
@@ -206,7 +219,6 @@ def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, t_stop, ma
     last processed event. The state is consistent at every return.
     """
     P, mass, omega, inertia, image, count = part
-    box, half, grav = geo
     key = q[0]
     mode = ip[L.IP_MODE]
     log_cap = ip[L.IP_LOG_CAP]
@@ -229,10 +241,10 @@ def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, t_stop, ma
             kind = ev[4][i]
             cnt[L.C_AUX] += 1
             if kind == L.AUX_SHELL:
-                advance(P, i, t, grav)
-                _wrap_into_box(P, image, i, box, half)
+                advance(P, i, t, geo)
+                _wrap_into_box(P, image, i, geo)
                 cnt[L.C_REBUILD] += 1
-                if not rebuild_list(i, P, grid, lists, box, half, fp[L.FP_SKIN], cbuf):
+                if not rebuild_list(i, P, grid, lists, geo, fp[L.FP_SKIN], cbuf):
                     return L.ST_LIST_FULL
                 predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
             else:
@@ -251,11 +263,11 @@ def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, t_stop, ma
             return L.ST_LOG_FULL
         if ip[L.IP_DEBUG] and not _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf):
             return L.ST_OVERLAP
-        advance(P, i, t, grav)
-        advance(P, j, t, grav)
+        advance(P, i, t, geo)
+        advance(P, j, t, geo)
         acc[L.A_KE_INT] += acc[L.A_KE] * (t - acc[L.A_LAST_T])
         acc[L.A_LAST_T] = t
-        vn, vt = collide_smooth(P, mass, i, j, e_n, box, half, acc)
+        vn, vt = collide_smooth(P, mass, i, j, e_n, geo, acc)
         count[i] += 1
         count[j] += 1
         cnt[L.C_COLL] += 1
@@ -271,24 +283,23 @@ def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, t_stop, ma
         _repredict(j, t, P, count, ev, q, grid, lists, geo, mode, fp, cbuf)
 
 
-@njit(cache=True)
+@jit
 def setup_events(part, ev, grid, lists, geo, fp, ip, t):
     """Bin every particle (positions or list centres) and predict all events at time ``t``.
 
     Returns ``False`` if a neighbour list ran out of capacity.
     """
     P, mass, omega, inertia, image, count = part
-    box, half, grav = geo
     mode = ip[L.IP_MODE]
     cbuf = np.empty(27, _I32)
     n = P.shape[0]
     if mode == L.NB_LIST:
-        if not build_lists(P, grid, lists, box, half, fp[L.FP_SKIN], cbuf):
+        if not build_lists(P, grid, lists, geo, fp[L.FP_SKIN], cbuf):
             return False
     else:
         grid[0][:] = -1
         for i in range(n):
-            cell_insert(grid, i, cell_of_point(P[i, L.X], P[i, L.Y], P[i, L.Z], box, grid))
+            cell_insert(grid, i, cell_of_point(P[i, L.X], P[i, L.Y], P[i, L.Z], geo, grid))
     for i in range(n):
         predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
         predict_aux(i, t, P, ev, grid, lists, geo, mode, fp)

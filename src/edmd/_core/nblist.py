@@ -13,14 +13,14 @@ the centres with cells of edge :math:`\\ge 2R_{\\max} + s`.
 
 import math
 
-from numba import njit
+from .jit import hot, jit
 
 from .cells import cell_block, cell_insert, cell_of_point, cell_remove
-from .layout import R, X, Y, Z
-from .predict import INF, flight, gap_time, sphere_exit_time, wrap_delta
+from .layout import G_GX, G_GY, G_GZ, G_ON, R, X, Y, Z
+from .predict import INF, flight, gap_time, sphere_exit_time, wrap3
 
 
-@njit(cache=True, inline="always")
+@hot
 def _drop(nbl, nbl_n, owner, i):
     """Remove ``i`` from the list of ``owner`` (swap with the last entry)."""
     n = nbl_n[owner] - 1
@@ -31,8 +31,8 @@ def _drop(nbl, nbl_n, owner, i):
             return
 
 
-@njit(cache=True, inline="always")
-def _link_neighbours(i, P, grid, lists, box, half, skin, cbuf, only_higher):
+@hot
+def _link_neighbours(i, P, grid, lists, geo, skin, cbuf, only_higher):
     """Add every ``j`` whose centre is within ``sigma_ij + skin`` of ``c_i`` to both lists.
 
     With ``only_higher`` only ``j > i`` is considered (initial build, each pair once).
@@ -43,14 +43,12 @@ def _link_neighbours(i, P, grid, lists, box, half, skin, cbuf, only_higher):
     cap = nbl.shape[1]
     cx, cy, cz = centre[i, 0], centre[i, 1], centre[i, 2]
     ri = P[i, R] + skin
-    nc = cell_block(grid, grid[2][i], half, cbuf, -1, 0)
+    nc = cell_block(grid, grid[2][i], geo, cbuf, -1, 0)
     for s in range(nc):
         j = head[cbuf[s]]
         while j >= 0:
             if j != i and (j > i or not only_higher):
-                dx = wrap_delta(cx - centre[j, 0], box[0], half[0])
-                dy = wrap_delta(cy - centre[j, 1], box[1], half[1])
-                dz = wrap_delta(cz - centre[j, 2], box[2], half[2])
+                dx, dy, dz = wrap3(cx - centre[j, 0], cy - centre[j, 1], cz - centre[j, 2], geo)
                 lim = ri + P[j, R]
                 if dx * dx + dy * dy + dz * dz < lim * lim:
                     ni = nbl_n[i]
@@ -65,30 +63,30 @@ def _link_neighbours(i, P, grid, lists, box, half, skin, cbuf, only_higher):
     return True
 
 
-@njit(cache=True, inline="always")
-def place_centre(i, P, grid, lists, box):
+@hot
+def place_centre(i, P, grid, lists, geo):
     """Put ``i``'s list centre at its stored position and register it in the grid."""
     centre = lists[2]
     centre[i, 0] = P[i, X]
     centre[i, 1] = P[i, Y]
     centre[i, 2] = P[i, Z]
-    cell_insert(grid, i, cell_of_point(P[i, X], P[i, Y], P[i, Z], box, grid))
+    cell_insert(grid, i, cell_of_point(P[i, X], P[i, Y], P[i, Z], geo, grid))
 
 
-@njit(cache=True)
-def rebuild_list(i, P, grid, lists, box, half, skin, cbuf):
+@jit
+def rebuild_list(i, P, grid, lists, geo, skin, cbuf):
     """Re-centre the neighbour list of ``i`` at its stored position (streamed and wrapped by the caller)."""
     nbl, nbl_n, centre = lists
     for s in range(nbl_n[i]):
         _drop(nbl, nbl_n, nbl[i, s], i)
     nbl_n[i] = 0
     cell_remove(grid, i)
-    place_centre(i, P, grid, lists, box)
-    return _link_neighbours(i, P, grid, lists, box, half, skin, cbuf, False)
+    place_centre(i, P, grid, lists, geo)
+    return _link_neighbours(i, P, grid, lists, geo, skin, cbuf, False)
 
 
-@njit(cache=True)
-def build_lists(P, grid, lists, box, half, skin, cbuf):
+@jit
+def build_lists(P, grid, lists, geo, skin, cbuf):
     """Build all neighbour lists from scratch, centred at the stored positions."""
     head = grid[0]
     head[:] = -1
@@ -96,15 +94,15 @@ def build_lists(P, grid, lists, box, half, skin, cbuf):
     nbl_n[:] = 0
     n = P.shape[0]
     for i in range(n):
-        place_centre(i, P, grid, lists, box)
+        place_centre(i, P, grid, lists, geo)
     for i in range(n):
-        if not _link_neighbours(i, P, grid, lists, box, half, skin, cbuf, True):
+        if not _link_neighbours(i, P, grid, lists, geo, skin, cbuf, True):
             return False
     return True
 
 
-@njit(cache=True, inline="always")
-def shell_exit_time(P, i, t, lists, box, half, grav, skin):
+@hot
+def shell_exit_time(P, i, t, lists, geo, skin):
     r"""Time at which ``i`` leaves its shell: the ball of radius ``skin/2`` around its centre.
 
     Without gravity the exact exit from the ball (quadratic); with gravity the exit from the
@@ -112,15 +110,13 @@ def shell_exit_time(P, i, t, lists, box, half, grav, skin):
     physics.md §1.3 (the ball test would be a quartic).
     """
     centre = lists[2]
-    x, y, z, vx, vy, vz = flight(P, i, t, grav)
-    dx = wrap_delta(x - centre[i, 0], box[0], half[0])
-    dy = wrap_delta(y - centre[i, 1], box[1], half[1])
-    dz = wrap_delta(z - centre[i, 2], box[2], half[2])
-    if grav[3] == 0.0:
+    x, y, z, vx, vy, vz = flight(P, i, t, geo)
+    dx, dy, dz = wrap3(x - centre[i, 0], y - centre[i, 1], z - centre[i, 2], geo)
+    if geo[G_ON] == 0.0:
         return t + sphere_exit_time(dx, dy, dz, vx, vy, vz, 0.5 * skin)
     h = 0.5 * skin / SQRT3
     best = INF
-    for d, v, g in ((dx, vx, grav[0]), (dy, vy, grav[1]), (dz, vz, grav[2])):
+    for d, v, g in ((dx, vx, geo[G_GX]), (dy, vy, geo[G_GY]), (dz, vz, geo[G_GZ])):
         best = min(best, gap_time(h - d, -v, -g), gap_time(h + d, v, g))
     return t + best
 

@@ -12,13 +12,13 @@ State scalars: ``qi = [heap_size, current_bucket, nb]``, ``qf = [t_base, 1/w, w]
 """
 
 import numpy as np
-from numba import njit
+from .jit import hot, jit
 
 QI_SIZE, QI_CUR, QI_NB = 0, 1, 2
 QF_BASE, QF_INV, QF_WIDTH = 0, 1, 2
 
 
-@njit(cache=True, inline="always")
+@hot
 def _sift_up(heap, loc, key, pos):
     i = heap[pos]
     k = key[i]
@@ -34,7 +34,7 @@ def _sift_up(heap, loc, key, pos):
     loc[i] = pos
 
 
-@njit(cache=True, inline="always")
+@hot
 def _sift_down(heap, loc, key, pos, n):
     i = heap[pos]
     k = key[i]
@@ -59,7 +59,7 @@ def _sift_down(heap, loc, key, pos, n):
     loc[i] = pos
 
 
-@njit(cache=True, inline="always")
+@hot
 def _bucket_of(t, qi, qf):
     """Bucket index for key ``t``: ``-1`` means the heap, ``nb`` the overflow list."""
     x = (t - qf[QF_BASE]) * qf[QF_INV]
@@ -70,7 +70,7 @@ def _bucket_of(t, qi, qf):
     return qi[QI_NB]
 
 
-@njit(cache=True, inline="always")
+@hot
 def _insert(q, i, t):
     key, loc, nxt, prv, head, heap, qi, qf = q
     key[i] = t
@@ -90,7 +90,7 @@ def _insert(q, i, t):
         loc[i] = -2 - b
 
 
-@njit(cache=True, inline="always")
+@hot
 def _remove(q, i):
     key, loc, nxt, prv, head, heap, qi, qf = q
     pos = loc[i]
@@ -117,7 +117,7 @@ def _remove(q, i):
             prv[s] = p
 
 
-@njit(cache=True, inline="always")
+@hot
 def queue_update(q, i, t):
     """Give particle ``i`` the new key ``t`` (re-sorting it)."""
     key, loc, nxt, prv, head, heap, qi, qf = q
@@ -134,7 +134,7 @@ def queue_update(q, i, t):
     _insert(q, i, t)
 
 
-@njit(cache=True)
+@jit
 def _wrap_calendar(q):
     """Start a new lap: move the overflow list into a calendar based at its earliest finite key.
 
@@ -161,7 +161,7 @@ def _wrap_calendar(q):
     return True
 
 
-@njit(cache=True, inline="always")
+@hot
 def queue_top(q):
     """Index of the particle with the smallest key, or ``-1`` if every key is infinite."""
     key, loc, nxt, prv, head, heap, qi, qf = q
@@ -184,7 +184,7 @@ def queue_top(q):
     return heap[0]
 
 
-@njit(cache=True)
+@jit
 def queue_build(q, keys, t_now, width, nb):
     """Fill an empty calendar with ``keys``; bucket ``0`` starts at ``t_now``."""
     key, loc, nxt, prv, head, heap, qi, qf = q

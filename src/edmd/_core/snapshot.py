@@ -1,14 +1,13 @@
 """Non-disturbing observation: stream copies of all particles to one instant."""
 
 import numpy as np
-from numba import njit
+from .jit import jit
 
-from .layout import VX, VY, VZ
 from .predict import flight
 
 
-@njit(cache=True)
-def stream_all(P, image, t, box, half, grav):
+@jit
+def stream_all(P, image, t, geo):
     """Positions (wrapped into the box), velocities and images of every particle at time ``t``.
 
     The engine's own arrays are not modified (physics.md §1.1: lazy update, evaluated on demand).
@@ -18,17 +17,18 @@ def stream_all(P, image, t, box, half, grav):
     vel = np.empty((n, 3))
     img = np.empty((n, 3), np.int64)
     for i in range(n):
-        x, y, z, vx, vy, vz = flight(P, i, t, grav)
+        x, y, z, vx, vy, vz = flight(P, i, t, geo)
         r = (x, y, z)
         for k in range(3):
             xk = r[k]
             m = image[i, k]
-            if half[k] < np.inf:
-                while xk >= half[k]:
-                    xk -= box[k]
+            length, half = geo[k], geo[3 + k]
+            if half < np.inf:
+                while xk >= half:
+                    xk -= length
                     m += 1
-                while xk < -half[k]:
-                    xk += box[k]
+                while xk < -half:
+                    xk += length
                     m -= 1
             pos[i, k] = xk
             img[i, k] = m
@@ -38,15 +38,11 @@ def stream_all(P, image, t, box, half, grav):
     return pos, vel, img
 
 
-@njit(cache=True)
-def kinetic_energy_at(P, mass, t, grav):
+@jit
+def kinetic_energy_at(P, mass, t, geo):
     """Total translational kinetic energy at time ``t``."""
     e = 0.0
-    dt = 0.0
     for i in range(P.shape[0]):
-        dt = t - P[i, 6]
-        vx = P[i, VX] + grav[0] * dt
-        vy = P[i, VY] + grav[1] * dt
-        vz = P[i, VZ] + grav[2] * dt
+        x, y, z, vx, vy, vz = flight(P, i, t, geo)
         e += mass[i] * (vx * vx + vy * vy + vz * vz)
     return 0.5 * e
