@@ -91,6 +91,7 @@ class Engine:
         self.acc = np.zeros(L.N_ACC)
         self.cnt = np.zeros(L.N_COUNTERS, np.int64)
         self.clog = np.zeros((0, 5))
+        self.cbuf = np.zeros(27, np.int32)
         self.collision_log: list[np.ndarray] | None = None
         self.list_capacity = 0
         self._choose_neighbours(state)
@@ -182,7 +183,7 @@ class Engine:
             cap = max(self.list_capacity, 1) if self.mode == "list" else 1
             nl = n if self.mode == "list" else 1
             self.lists = (np.zeros((nl, cap), np.int32), np.zeros(nl, np.int32), np.zeros((nl, 3)))
-            if setup_events(self.part, self.ev, self.grid, self.lists, geo, self.fp, self.ip, 0.0):
+            if setup_events(self.part, self.ev, self.grid, self.lists, geo, self.fp, self.ip, self.cbuf, 0.0):
                 break
             self.list_capacity = int(self.list_capacity * 1.5) + 4
         keys = np.minimum(self.ev[0], self.ev[3])
@@ -217,7 +218,7 @@ class Engine:
             before = int(self.cnt[L.C_EVENTS])
             status = run_events(
                 self.part, self.ev, self.q, self.grid, self.lists, geo, self.fp, self.ip,
-                self.acc, self.cnt, self.clog, t_stop - self.t_origin, chunk,
+                self.acc, self.cnt, self.clog, self.cbuf, t_stop - self.t_origin, chunk,
             )  # fmt: skip
             budget -= int(self.cnt[L.C_EVENTS]) - before
             if status == L.ST_LOG_FULL:

@@ -1,13 +1,13 @@
 """Whole-system geometry helpers: overlap search and spatial ordering (compiled)."""
 
 import numpy as np
-from .jit import jit
+from .jit import jit_alloc
 
 from .cells import cell_block, cell_insert, cell_of_point
 from .predict import wrap3
 
 
-@jit
+@jit_alloc
 def worst_overlap(pos, radius, geo, grid, rel_tol):
     """Return ``(i, j, distance)`` of the deepest overlap beyond ``rel_tol`` (``-1, -1, 0`` if none).
 
@@ -36,7 +36,7 @@ def worst_overlap(pos, radius, geo, grid, rel_tol):
     return bi, bj, bd
 
 
-@jit
+@jit_alloc
 def random_insert(radius, geo, grid, pos, uniforms, start, dim):
     """Sequentially place particles ``start, start+1, ...`` at random without overlap.
 
@@ -75,7 +75,7 @@ def random_insert(radius, geo, grid, pos, uniforms, start, dim):
     return n
 
 
-@jit
+@jit_alloc
 def relax_overlaps(pos, radius, geo, grid, inflate, step, max_iter, dim):
     """Push overlapping particles apart by steepest descent on a harmonic overlap energy.
 

@@ -27,8 +27,6 @@ from .nblist import build_lists, rebuild_list, shell_exit_time
 from .predict import INF, advance, contact_time, flight, relative_to, separation
 from .queue import queue_top, queue_update
 
-_I32 = np.int32
-
 
 @hot
 def _set_pair(ev, count, i, t, j):
@@ -212,18 +210,18 @@ def _wrap_into_box(P, image, i, geo):
 
 
 @jit
-def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, t_stop, max_events):
+def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, t_stop, max_events):
     """Process events in time order until ``t_stop`` (exclusive) or ``max_events``.
 
     Returns a status code of :mod:`.layout` (``ST_*``); ``acc[A_NOW]`` holds the time of the
-    last processed event. The state is consistent at every return.
+    last processed event. The state is consistent at every return. ``cbuf`` is an int32 scratch
+    array of 27 cells (the loop allocates nothing).
     """
     P, mass, omega, inertia, image, count = part
     key = q[0]
     mode = ip[L.IP_MODE]
     log_cap = ip[L.IP_LOG_CAP]
     e_n = fp[L.FP_EN]
-    cbuf = np.empty(27, _I32)
     done = 0
     while True:
         i = queue_top(q)
@@ -284,14 +282,13 @@ def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, t_stop, ma
 
 
 @jit
-def setup_events(part, ev, grid, lists, geo, fp, ip, t):
+def setup_events(part, ev, grid, lists, geo, fp, ip, cbuf, t):
     """Bin every particle (positions or list centres) and predict all events at time ``t``.
 
     Returns ``False`` if a neighbour list ran out of capacity.
     """
     P, mass, omega, inertia, image, count = part
     mode = ip[L.IP_MODE]
-    cbuf = np.empty(27, _I32)
     n = P.shape[0]
     if mode == L.NB_LIST:
         if not build_lists(P, grid, lists, geo, fp[L.FP_SKIN], cbuf):

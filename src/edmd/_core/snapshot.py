@@ -1,12 +1,12 @@
 """Non-disturbing observation: stream copies of all particles to one instant."""
 
 import numpy as np
-from .jit import jit
+from .jit import jit, jit_alloc
 
 from .predict import flight
 
 
-@jit
+@jit_alloc
 def stream_all(P, image, t, geo):
     """Positions (wrapped into the box), velocities and images of every particle at time ``t``.
 
