@@ -102,7 +102,7 @@ class EngineConfig(_Section):
     neighbours: Literal["auto", "list", "cells"] = "auto"
     skin: float = Field(0.5, gt=0)
     resync_every: float = Field(50.0, gt=0)
-    events_per_bucket: float = Field(8.0, gt=0)
+    events_per_bucket: float = Field(4.0, gt=0)
 
 
 class OutputConfig(_Section):

@@ -46,7 +46,7 @@ class EngineOptions:
     neighbours: str = "auto"
     skin: float = 0.5
     resync_every: float = 50.0
-    events_per_bucket: float = 8.0
+    events_per_bucket: float = 4.0
     auto_threshold: float = 0.2
     debug: bool = False
     debug_tolerance: float = 1e-9
@@ -164,6 +164,14 @@ class Engine:
         )
         self._rebuild()
 
+    def _trim_lists(self):
+        """Shrink list rows to the fullest list plus a margin (lists grow again on overflow)."""
+        nbl, nbl_n, centre = self.lists
+        cap = int(nbl_n.max() * 1.25) + 4
+        if cap < nbl.shape[1]:
+            self.lists = (np.ascontiguousarray(nbl[:, :cap]), nbl_n, centre)
+            self.list_capacity = cap
+
     def _spatial_order(self, pos):
         """Deterministic spatial sort (cell index, then original index) for memory locality."""
         nc = self.grid_cells
@@ -186,6 +194,8 @@ class Engine:
             if setup_events(self.part, self.ev, self.grid, self.lists, geo, self.fp, self.ip, self.cbuf, 0.0):
                 break
             self.list_capacity = int(self.list_capacity * 1.5) + 4
+        if self.mode == "list":
+            self._trim_lists()
         keys = np.minimum(self.ev[0], self.ev[3])
         width, nb = calendar_shape(keys, 0.0, self.options.events_per_bucket)
         self.q = new_queue(n, nb)
