@@ -8,10 +8,12 @@ from .predict import wrap3
 
 
 @jit_alloc
-def worst_overlap(pos, radius, geo, grid, rel_tol):
-    """Return ``(i, j, distance)`` of the deepest overlap beyond ``rel_tol`` (``-1, -1, 0`` if none).
+def close_pairs(pos, radius, geo, grid, scale):
+    """Every pair ``i < j`` closer than ``scale * (R_i + R_j)``: arrays ``(i, j, dx, dy, dz, r)``.
 
-    ``pos`` is ``(N, 3)``; ``grid`` must have cells of edge at least the largest contact distance.
+    ``pos`` is ``(N, 3)`` (inside the box); ``grid`` must have cells of edge at least
+    ``scale`` times the largest contact distance. ``(dx, dy, dz)`` is the minimum-image
+    ``pos[i] - pos[j]``.
     """
     n = pos.shape[0]
     head, nxt = grid[0], grid[1]
@@ -19,7 +21,7 @@ def worst_overlap(pos, radius, geo, grid, rel_tol):
     for i in range(n):
         cell_insert(grid, i, cell_of_point(pos[i, 0], pos[i, 1], pos[i, 2], geo, grid))
     cbuf = np.empty(27, np.int32)
-    bi, bj, worst, bd = -1, -1, 0.0, 0.0
+    ii, jj, dd = [], [], []
     for i in range(n):
         nc = cell_block(grid, grid[2][i], geo, cbuf, -1, 0)
         for s in range(nc):
@@ -27,12 +29,28 @@ def worst_overlap(pos, radius, geo, grid, rel_tol):
             while j >= 0:
                 if j > i:
                     dx, dy, dz = wrap3(pos[i, 0] - pos[j, 0], pos[i, 1] - pos[j, 1], pos[i, 2] - pos[j, 2], geo)
-                    sig = radius[i] + radius[j]
-                    d = np.sqrt(dx * dx + dy * dy + dz * dz)
-                    depth = 1.0 - d / sig
-                    if depth > rel_tol and depth > worst:
-                        bi, bj, worst, bd = i, j, depth, d
+                    sig = scale * (radius[i] + radius[j])
+                    r2 = dx * dx + dy * dy + dz * dz
+                    if r2 < sig * sig:
+                        ii.append(i)
+                        jj.append(j)
+                        dd.append((dx, dy, dz, np.sqrt(r2)))
                 j = nxt[j]
+    d = np.empty((len(dd), 4))
+    for k in range(len(dd)):
+        d[k, 0], d[k, 1], d[k, 2], d[k, 3] = dd[k]
+    return np.array(ii, np.int64), np.array(jj, np.int64), d
+
+
+@jit_alloc
+def worst_overlap(pos, radius, geo, grid, rel_tol):
+    """Return ``(i, j, distance)`` of the deepest overlap beyond ``rel_tol`` (``-1, -1, 0`` if none)."""
+    ii, jj, d = close_pairs(pos, radius, geo, grid, 1.0)
+    bi, bj, worst, bd = -1, -1, 0.0, 0.0
+    for k in range(ii.shape[0]):
+        depth = 1.0 - d[k, 3] / (radius[ii[k]] + radius[jj[k]])
+        if depth > rel_tol and depth > worst:
+            bi, bj, worst, bd = ii[k], jj[k], depth, d[k, 3]
     return bi, bj, bd
 
 
@@ -86,42 +104,26 @@ def relax_overlaps(pos, radius, geo, grid, inflate, step, max_iter, dim):
     (``max_iter + 1`` if overlaps remain).
     """
     n = pos.shape[0]
-    head, nxt = grid[0], grid[1]
-    cbuf = np.empty(27, np.int32)
     push = np.zeros((n, 3))
     for it in range(max_iter):
-        head[:] = -1
         for i in range(n):
             for k in range(dim):
                 if pos[i, k] >= geo[3 + k]:
                     pos[i, k] -= geo[k]
                 elif pos[i, k] < -geo[3 + k]:
                     pos[i, k] += geo[k]
-            cell_insert(grid, i, cell_of_point(pos[i, 0], pos[i, 1], pos[i, 2], geo, grid))
+        ii, jj, d = close_pairs(pos, radius, geo, grid, inflate)
         push[:] = 0.0
         worst = 0.0
-        for i in range(n):
-            nc = cell_block(grid, grid[2][i], geo, cbuf, -1, 0)
-            for s in range(nc):
-                j = head[cbuf[s]]
-                while j >= 0:
-                    if j > i:
-                        dx, dy, dz = wrap3(pos[i, 0] - pos[j, 0], pos[i, 1] - pos[j, 1], pos[i, 2] - pos[j, 2], geo)
-                        sig = (radius[i] + radius[j]) * inflate
-                        r2 = dx * dx + dy * dy + dz * dz
-                        if r2 < sig * sig:
-                            r = np.sqrt(r2)
-                            if r == 0.0:
-                                dx, r = 1e-6 * sig, 1e-6 * sig
-                            o = (sig - r) / r
-                            worst = max(worst, o * r / sig)
-                            push[i, 0] += o * dx
-                            push[i, 1] += o * dy
-                            push[i, 2] += o * dz
-                            push[j, 0] -= o * dx
-                            push[j, 1] -= o * dy
-                            push[j, 2] -= o * dz
-                    j = nxt[j]
+        for k in range(ii.shape[0]):
+            sig = inflate * (radius[ii[k]] + radius[jj[k]])
+            r = max(d[k, 3], 1e-6 * sig)
+            o = (sig - r) / r
+            worst = max(worst, (sig - r) / sig)
+            for a in range(3):
+                da = d[k, a] if d[k, 3] > 0.0 else (1e-6 * sig if a == 0 else 0.0)
+                push[ii[k], a] += o * da
+                push[jj[k], a] -= o * da
         if worst <= 0.5 * (inflate - 1.0) / inflate:
             return it
         for i in range(n):
