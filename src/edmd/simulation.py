@@ -5,10 +5,12 @@ from __future__ import annotations
 import dataclasses
 import math
 import time as _time
+import warnings
 from collections.abc import Callable
 
 import numpy as np
 
+from . import collide
 from ._core import layout as L
 from .engine import Engine, EngineOptions
 from .state import State
@@ -24,7 +26,9 @@ class Totals:
         collisions: binary collisions.
         virial: :math:`\\sum_{\\rm coll} \\mathbf r_{ij}\\cdot\\mathbf J` (physics.md §5.3).
         kinetic_integral: :math:`\\int E_{\\rm kin}\\,dt`.
-        dissipated: kinetic energy lost in collisions.
+        dissipated: kinetic (translational + rotational) energy lost in collisions.
+        wall_impulse: ``(d, 2)`` normal momentum taken by the lower and upper wall of each axis.
+        wall_collisions: particle-wall collisions.
     """
 
     time: float
@@ -33,6 +37,8 @@ class Totals:
     virial: float
     kinetic_integral: float
     dissipated: float
+    wall_impulse: np.ndarray
+    wall_collisions: int
 
 
 class Observer:
@@ -92,11 +98,14 @@ class Callback(Observer):
 
 
 class Simulation:
-    """Event-driven molecular dynamics of one system.
+    r"""Event-driven molecular dynamics of one system.
 
     Args:
         state: the initial :class:`~edmd.state.State` (validated: no overlaps, positive radii...).
-        e_n: constant normal restitution coefficient (1 = elastic hard spheres).
+            Its non-periodic axes are closed by hard walls at :math:`\pm L/2`.
+        collision: the collision rule (:mod:`edmd.collide`); elastic smooth spheres by default.
+        e_n: shortcut for ``collision=Inelastic(e_n)``.
+        walls: restitution of the walls (:class:`edmd.collide.Wall`), elastic and smooth by default.
         gravity: uniform acceleration (``d`` numbers) or ``None``.
         engine: :class:`~edmd.engine.EngineOptions` (or a dict of them).
 
@@ -108,12 +117,25 @@ class Simulation:
         (2.0, True)
     """
 
-    def __init__(self, state: State, *, e_n: float = 1.0, gravity=None, engine: EngineOptions | dict | None = None):
-        if not 0.0 <= e_n <= 1.0:
-            raise ValueError(f"e_n must be in [0, 1], got {e_n}")
+    def __init__(
+        self,
+        state: State,
+        *,
+        collision: collide.Rule | None = None,
+        e_n: float | None = None,
+        walls: collide.Wall | None = None,
+        gravity=None,
+        engine: EngineOptions | dict | None = None,
+    ):
+        if e_n is not None:
+            if collision is not None:
+                raise ValueError("give either collision or the e_n shortcut, not both")
+            collision = collide.Inelastic(e_n)
         if isinstance(engine, dict):
             engine = EngineOptions(**engine)
-        self._engine = Engine(state, engine, e_n=e_n, gravity=gravity)
+        self._engine = Engine(state, engine, rule=collision, wall=walls, gravity=gravity)
+        self.gravity = self._engine.grav[: state.dim].copy()
+        _warn_viscoelastic_validity(state, self._engine.rule, self._engine.wall, self.gravity)
         self._time = float(state.time)
         self.observers: list[Observer] = []
         self.wall_seconds = 0.0
@@ -160,6 +182,8 @@ class Simulation:
             virial=float(e.acc[L.A_VIRIAL]),
             kinetic_integral=e.kinetic_integral(self._time),
             dissipated=float(e.acc[L.A_DISSIPATED]),
+            wall_impulse=e.acc[L.A_WALL : L.A_WALL + 2 * e.dim].reshape(e.dim, 2).copy(),
+            wall_collisions=int(e.cnt[L.C_WALL]),
         )
 
     # ------------------------------------------------------------------ observers
@@ -234,6 +258,21 @@ class Simulation:
         """Close every observer (flush files)."""
         for o in self.observers:
             o.close()
+
+
+def _warn_viscoelastic_validity(state: State, rule, wall, gravity):
+    """Warn when impacts may reach delta > 1, outside the viscoelastic model (physics.md §2.2.2)."""
+    for material in collide.materials(rule, wall):
+        speed = 2.0 * float(np.max(np.linalg.norm(state.velocity, axis=1)))
+        speed += float(np.linalg.norm(gravity)) ** 0.5 * float(np.max(state.box)) ** 0.5 * 2.0
+        mu = 0.5 * float(state.mass.min())
+        delta = material.beta_v(mu, 0.5 * float(state.radius.min())) * speed**0.2
+        if delta > 1.0:
+            warnings.warn(
+                f"viscoelastic impacts may reach delta = {delta:.3g} > 1 (impact speed up to ~{speed:.3g}), "
+                "outside the validity of the viscoelastic model (dissipative force above the elastic one)",
+                stacklevel=3,
+            )
 
 
 class _Progress:

@@ -58,7 +58,10 @@ class State:
         angular_velocity: ``(N, 3)`` in 3D, ``(N,)`` in 2D (zeros by default).
         inertia: ``(N,)`` moments of inertia (solid spheres/disks by default).
         image: ``(N, d)`` integer periodic images (for unwrapped positions).
-        periodic: ``(d,)`` periodic flags (all ``True`` by default).
+        periodic: ``(d,)`` periodic flags (all ``True`` by default); every other axis is
+            closed by hard walls at :math:`\pm L/2`.
+        last_collision: ``(N,)`` time of each particle's last collision (``-inf``: none yet), the
+            memory of the TC model.
 
     Example:
         >>> s = State(position=[[0.0, 0.0], [1.5, 0.0]], velocity=[[1.0, 0.0], [0.0, 0.0]],
@@ -77,6 +80,7 @@ class State:
     inertia: np.ndarray | None = None
     image: np.ndarray | None = None
     periodic: np.ndarray | None = None
+    last_collision: np.ndarray | None = None
     check_overlaps: dataclasses.InitVar[bool] = True
 
     def __post_init__(self, check_overlaps: bool = True):
@@ -110,6 +114,10 @@ class State:
         if periodic.shape != (d,):
             raise StateError(f"periodic must have shape {(d,)}, got {periodic.shape}")
         self.periodic = periodic.copy()
+        last = np.full(n, -np.inf) if self.last_collision is None else np.array(self.last_collision, np.float64)
+        if last.shape != (n,) or np.any(np.isnan(last)) or np.any(last == np.inf):
+            raise StateError(f"last_collision must be {n} times (or -inf), got shape {last.shape}")
+        self.last_collision = last
         self._check_values()
         if check_overlaps:
             self.check_no_overlap()
