@@ -20,7 +20,10 @@ def build_state(cfg: Config) -> State:
     """The initial state described by ``[system]``."""
     s = cfg.system
     radius = s.radius if isinstance(s.radius, float) else s.radius.as_dict()
-    common = dict(n=s.n, packing_fraction=s.packing_fraction, dim=s.dim, radius=radius, mass=s.mass, density=s.density, seed=s.seed)
+    periodic = [axis not in cfg.walls.axes for axis in "xyz"[: s.dim]]
+    common = dict(
+        n=s.n, packing_fraction=s.packing_fraction, dim=s.dim, radius=radius, mass=s.mass, density=s.density, seed=s.seed, periodic=periodic
+    )
     if s.init == "lattice":
         state = lattice(kind=s.lattice, **common)
     else:
@@ -33,7 +36,9 @@ def build_simulation(cfg: Config, state: State | None = None) -> Simulation:
     state = build_state(cfg) if state is None else state
     e = cfg.engine
     options = EngineOptions(neighbours=e.neighbours, skin=e.skin, resync_every=e.resync_every, events_per_bucket=e.events_per_bucket)
-    return Simulation(state, e_n=cfg.collision.e_n, engine=options)
+    rule = cfg.collision.build()
+    walls = cfg.walls.build(cfg.collision.material())
+    return Simulation(state, collision=rule, walls=walls, gravity=cfg.system.gravity, engine=options)
 
 
 def run_directory(cfg: Config, out: str | Path, progress: bool | None = None) -> dict:

@@ -225,6 +225,15 @@ class State:
             w2 = w2.sum(axis=1)
         return 0.5 * float(np.sum(self.inertia * w2))
 
+    def rotational_temperature(self) -> float:
+        r"""Rotational temperature :math:`T_{\rm rot} = \frac{1}{d_r N}\sum_i I_i\omega_i^2` (:math:`d_r` = 3 in 3D, 1 in 2D)."""
+        return 2.0 * self.rotational_energy() / ((3 if self.dim == 3 else 1) * self.n)
+
+    def potential_energy(self, gravity) -> float:
+        r"""Potential energy :math:`-\sum_i m_i\,\mathbf G\cdot\mathbf r_i` in uniform gravity (unwrapped positions)."""
+        g = np.zeros(self.dim) if gravity is None else np.asarray(gravity, float)
+        return -float(self.mass @ (self.unwrapped_position @ g))
+
     def momentum(self) -> np.ndarray:
         """Total linear momentum."""
         return (self.mass[:, None] * self.velocity).sum(axis=0)

@@ -17,10 +17,16 @@ COLUMNS = (
     "collisions",
     "kinetic_energy",
     "temperature",
+    "rotational_energy",
+    "temperature_rot",
+    "potential_energy",
+    "dissipated_energy",
+    "energy_balance",
     "pressure",
     "collision_rate",
-    "dissipated_energy",
+    "wall_collisions",
 )
+AXES = "xyz"
 
 
 def pressure(state: State, d_kinetic_integral: float, d_virial: float, dt: float) -> float:
@@ -45,10 +51,15 @@ def pressure(state: State, d_kinetic_integral: float, d_virial: float, dt: float
 class Thermo(Observer):
     """Thermodynamic table, one row per interval, optionally written to a CSV file.
 
-    Each row holds the instantaneous ``time, events, collisions, kinetic_energy, temperature,
-    dissipated_energy`` and, averaged over the interval that ends there, the ``pressure``
-    (kinetic + collision virial, physics.md §5.3) and the ``collision_rate`` per particle,
-    :math:`2\\Delta N_{\\rm coll}/(N\\Delta t)`. The first row has no interval (NaN).
+    Each row holds the instantaneous ``time, events, collisions``, the translational
+    ``kinetic_energy`` and ``temperature``, the ``rotational_energy`` and ``temperature_rot``,
+    the gravitational ``potential_energy``, the cumulative ``dissipated_energy`` and their sum
+    ``energy_balance`` (constant to round-off: kinetic + rotational + potential + dissipated),
+    and, averaged over the interval that ends there, the ``pressure`` (kinetic + collision
+    virial, physics.md §5.3; meaningful in periodic directions), the ``collision_rate`` per
+    particle :math:`2\\Delta N_{\\rm coll}/(N\\Delta t)` and, for every axis closed by walls,
+    ``wall_pressure_<axis>``: the mean normal force per area on its two walls. The first row has
+    no interval (NaN).
 
     Example:
         >>> import edmd
@@ -68,21 +79,34 @@ class Thermo(Observer):
         self._last: Totals | None = None
 
     def observe(self, sim: Simulation, state: State, totals: Totals):
+        kinetic, rotational = state.kinetic_energy(), state.rotational_energy()
+        potential = state.potential_energy(sim.gravity)
         row = {
             "time": totals.time,
             "events": totals.events,
             "collisions": totals.collisions,
-            "kinetic_energy": state.kinetic_energy(),
+            "kinetic_energy": kinetic,
             "temperature": state.temperature(),
+            "rotational_energy": rotational,
+            "temperature_rot": state.rotational_temperature(),
+            "potential_energy": potential,
+            "dissipated_energy": totals.dissipated,
+            "energy_balance": kinetic + rotational + potential + totals.dissipated,
             "pressure": math.nan,
             "collision_rate": math.nan,
-            "dissipated_energy": totals.dissipated,
+            "wall_collisions": totals.wall_collisions,
         }
+        walls = np.flatnonzero(~state.periodic)
+        for k in walls:
+            row[f"wall_pressure_{AXES[k]}"] = math.nan
         last = self._last
         if last is not None and totals.time > last.time:
             dt = totals.time - last.time
             row["pressure"] = pressure(state, totals.kinetic_integral - last.kinetic_integral, totals.virial - last.virial, dt)
             row["collision_rate"] = 2.0 * (totals.collisions - last.collisions) / (state.n * dt)
+            for k in walls:
+                area = state.volume / state.box[k]
+                row[f"wall_pressure_{AXES[k]}"] = float((totals.wall_impulse[k] - last.wall_impulse[k]).sum()) / (2.0 * area * dt)
         self._last = totals
         self.rows.append(row)
         if self.path is not None:
@@ -92,7 +116,7 @@ class Thermo(Observer):
         if self._file is None:
             new = not os.path.exists(self.path) or os.path.getsize(self.path) == 0
             self._file = open(self.path, "a", newline="")
-            self._writer = csv.DictWriter(self._file, fieldnames=COLUMNS)
+            self._writer = csv.DictWriter(self._file, fieldnames=list(row))
             if new:
                 self._writer.writeheader()
         self._writer.writerow({k: repr(float(v)) if isinstance(v, float) else v for k, v in row.items()})
@@ -100,7 +124,7 @@ class Thermo(Observer):
 
     def table(self) -> dict[str, np.ndarray]:
         """The rows as a dict of column arrays."""
-        return {c: np.array([r[c] for r in self.rows]) for c in COLUMNS}
+        return {c: np.array([r[c] for r in self.rows]) for c in (self.rows[0] if self.rows else COLUMNS)}
 
     def close(self):
         if self._file is not None:
