@@ -12,7 +12,7 @@ import numpy as np
 
 from . import collide
 from ._core import layout as L
-from .engine import Engine, EngineOptions
+from .engine import Engine, EngineError, EngineOptions
 from .state import State
 
 
@@ -236,7 +236,11 @@ class Simulation:
             while budget > 0 and _time.perf_counter() < deadline:
                 stop = min([target] + [o.next_time for o in self.observers])
                 before = self.events
-                status = self._engine.advance(stop, min(budget, chunk))
+                try:
+                    status = self._engine.advance(stop, min(budget, chunk))
+                except EngineError:
+                    self._time = max(self._time, self._engine.now)  # consistent: inspect sim.state
+                    raise
                 budget -= self.events - before
                 if status in (L.ST_TIME, L.ST_IDLE) and math.isfinite(stop):
                     self._time = stop
