@@ -150,24 +150,6 @@ def test_emd_exception_map_example_expands_to_the_fig7_grid():
 
 
 # ---------------------------------------------------------------------- running
-def test_local_pool_and_dask_give_identical_tables(local_sweep, tmp_path):
-    distributed = pytest.importorskip("distributed")
-    assert local_sweep.ran == 4 and local_sweep.skipped == 0 and not local_sweep.failed
-    with distributed.LocalCluster(processes=False, n_workers=2, threads_per_worker=1, dashboard_address=None) as cluster:
-        with distributed.Client(cluster) as client:
-            on_dask = edmd.sweep(_spec(GRID), tmp_path, executor=client.get_executor(pure=False))
-    assert on_dask.ran == 4
-    rows = _reproducible(local_sweep.table.rows)
-    assert rows == _reproducible(on_dask.table.rows)
-    assert [(r["system.packing_fraction"], r["collision.e_n"]) for r in rows] == [(0.2, 0.8), (0.2, 0.9), (0.3, 0.8), (0.3, 0.9)]
-    for row in rows:
-        assert row["status"] == "done" and row["time"] == 1.0 and row["collisions"] > 0
-        assert row["temperature_mean"] > row["temperature"] and row["dissipated_energy"] > 0  # inelastic: cooling
-        assert np.isfinite(row["pressure_mean"]) and np.isfinite(row["collision_rate_mean"])
-        a, b = point_dir(local_sweep.directory, row["point"]), point_dir(tmp_path, row["point"])
-        assert (a / "thermo.csv").read_bytes() == (b / "thermo.csv").read_bytes()
-
-
 def test_results_table_files(local_sweep):
     pq = pytest.importorskip("pyarrow.parquet")
     csv_path, parquet_path = local_sweep.table.paths
@@ -254,3 +236,22 @@ def test_cli_input_errors(tmp_path):
     bad = _write(tmp_path, '[grid]\n"colision.e_n" = [0.8]\n')
     assert "did you mean 'collision.e_n'" in fails(str(bad), "--out", str(tmp_path / "x"))
     assert "scheduler's cluster has its own workers" in fails(str(_write(tmp_path, GRID)), "--scheduler", "tcp://127.0.0.1:1", "--workers", "2")
+
+
+# Last: the in-process dask cluster may leave threads behind, and the pool tests above fork.
+def test_local_pool_and_dask_give_identical_tables(local_sweep, tmp_path):
+    distributed = pytest.importorskip("distributed")
+    assert local_sweep.ran == 4 and local_sweep.skipped == 0 and not local_sweep.failed
+    with distributed.LocalCluster(processes=False, n_workers=2, threads_per_worker=1, dashboard_address=None) as cluster:
+        with distributed.Client(cluster) as client:
+            on_dask = edmd.sweep(_spec(GRID), tmp_path, executor=client.get_executor(pure=False))
+    assert on_dask.ran == 4
+    rows = _reproducible(local_sweep.table.rows)
+    assert rows == _reproducible(on_dask.table.rows)
+    assert [(r["system.packing_fraction"], r["collision.e_n"]) for r in rows] == [(0.2, 0.8), (0.2, 0.9), (0.3, 0.8), (0.3, 0.9)]
+    for row in rows:
+        assert row["status"] == "done" and row["time"] == 1.0 and row["collisions"] > 0
+        assert row["temperature_mean"] > row["temperature"] and row["dissipated_energy"] > 0  # inelastic: cooling
+        assert np.isfinite(row["pressure_mean"]) and np.isfinite(row["collision_rate_mean"])
+        a, b = point_dir(local_sweep.directory, row["point"]), point_dir(tmp_path, row["point"])
+        assert (a / "thermo.csv").read_bytes() == (b / "thermo.csv").read_bytes()

@@ -110,6 +110,8 @@ def sweep(
     out = Path(out).resolve()
     _prepare(out, spec, points)
     todo = [p for p in points if (read_json(point_dir(out, p.id) / STATUS) or {}).get("status") != "done"]
+    for p in todo:
+        write_atomic(point_dir(out, p.id) / CONFIG, p.text)
     _run_all(todo, out, executor, workers, lambda: _progress_bar(progress, len(points), len(points) - len(todo)))
     table = sweep_summary(out)
     failed = [row for row in table.rows if row["status"] == "failed"]
@@ -137,7 +139,11 @@ def dask_executor(scheduler: str | None = None, workers: int | None = None) -> I
     if scheduler is not None:
         if workers is not None:
             raise SweepError("workers sets the size of a local cluster; a scheduler's cluster has its own workers")
-        with Client(scheduler) as client:
+        try:
+            client = Client(scheduler)
+        except (OSError, TimeoutError) as exc:
+            raise SweepError(f"cannot reach the dask scheduler at {scheduler}: {exc}") from None
+        with client:
             yield client.get_executor(pure=False)
         return
     with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True) as cluster, Client(cluster) as client:
@@ -146,13 +152,11 @@ def dask_executor(scheduler: str | None = None, workers: int | None = None) -> I
 
 # ---------------------------------------------------------------------- steps
 def _prepare(out: Path, spec: SweepSpec, points: list[Point]):
-    """Write the manifest and each point's ``point.json`` (and ``config.toml`` if it is missing)."""
+    """Write the manifest and each point's ``point.json``."""
     for p in points:
         directory = point_dir(out, p.id)
         directory.mkdir(parents=True, exist_ok=True)
         write_json(directory / POINT, {"id": p.id, "index": p.index, "params": p.params})
-        if not (directory / CONFIG).exists():
-            write_atomic(directory / CONFIG, p.text)
     write_json(out / MANIFEST, {"sweep": spec.to_dict(), "points": [{"id": p.id, "params": p.params} for p in points]})
 
 
