@@ -235,6 +235,7 @@ def test_cli_input_errors(tmp_path):
     assert "is not a sweep directory" in fails("--summary", str(tmp_path))
     bad = _write(tmp_path, '[grid]\n"colision.e_n" = [0.8]\n')
     assert "did you mean 'collision.e_n'" in fails(str(bad), "--out", str(tmp_path / "x"))
+    assert "error: [grid] is empty" in fails(str(_write(tmp_path, "[grid]\n", "empty.toml")))
     assert "scheduler's cluster has its own workers" in fails(str(_write(tmp_path, GRID)), "--scheduler", "tcp://127.0.0.1:1", "--workers", "2")
 
 

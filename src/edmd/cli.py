@@ -8,6 +8,7 @@ from pathlib import Path
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 from .config import EXAMPLE, Config, ConfigError, load_config
@@ -19,7 +20,7 @@ err_console = Console(stderr=True)
 
 
 def _fail(msg: str):
-    err_console.print(f"[bold red]error:[/] {msg}")
+    err_console.print(f"[bold red]error:[/] {escape(msg)}")
     raise typer.Exit(code=2)
 
 
@@ -61,11 +62,11 @@ def init(
 
 @app.command()
 def sweep(
-    sweep_file: Path = typer.Argument(None, help="Sweep file (TOML): a base configuration and a [grid] and/or [[points]] of overrides."),
-    out: Path = typer.Option(None, "--out", "-o", help="Sweep directory [default: <sweep file name>-sweep]."),
-    workers: int = typer.Option(None, "--workers", "-w", min=1, help="Local worker processes (or --dask cluster size) [default: one per CPU]."),
+    sweep_file: Path = typer.Argument(None, help="Sweep file (TOML): a base configuration and a \\[grid] and/or \\[\\[points]] of overrides."),
+    out: Path = typer.Option(None, "--out", "-o", help="Sweep directory (default: <sweep file name>-sweep)."),
+    workers: int = typer.Option(None, "--workers", "-w", min=1, help="Local worker processes, or the --dask cluster size (default: one per CPU)."),
     scheduler: str = typer.Option(None, "--scheduler", help="Run on the dask.distributed cluster of this scheduler (tcp://host:8786)."),
-    dask: bool = typer.Option(False, "--dask", help="Run on a local dask.distributed cluster (pip install 'edmd[dask]')."),
+    dask: bool = typer.Option(False, "--dask", help="Run on a local dask.distributed cluster (pip install 'edmd\\[dask]')."),
     summary: Path = typer.Option(None, "--summary", help="Only rebuild the results table of this sweep directory."),
     progress: bool = typer.Option(True, "--progress/--no-progress", help="Show a progress bar counting points."),
 ):
@@ -92,16 +93,16 @@ def sweep(
 
 def _report_summary(directory: Path, table, head: str = ""):
     counts = collections.Counter(row["status"] for row in table.rows)
-    console.print(f"sweep {directory}: {len(table.rows)} points; {head}" + ", ".join(f"{n} {s}" for s, n in sorted(counts.items())), soft_wrap=True)
+    console.print(f"sweep {escape(str(directory))}: {len(table.rows)} points; {head}" + ", ".join(f"{n} {s}" for s, n in sorted(counts.items())), soft_wrap=True)
     failed = [row for row in table.rows if row["status"] == "failed"]
     if failed:
         listing = Table("point", "error", title="failed points (traceback in points/<point>/error.txt)")
         for row in failed[:10]:
-            listing.add_row(row["point"], row["error"])
+            listing.add_row(row["point"], escape(row["error"]))
         if len(failed) > 10:
             listing.add_row("...", f"and {len(failed) - 10} more (edmd sweep --summary {directory})")
         err_console.print(listing)
-    console.print("results: " + ", ".join(str(p) for p in table.paths), soft_wrap=True)
+    console.print("results: " + escape(", ".join(str(p) for p in table.paths)), soft_wrap=True)
 
 
 def main():  # pragma: no cover
