@@ -5,6 +5,7 @@ from .engine import EngineOptions
 from .initial import lattice, maxwell_boltzmann, radii, random_packing
 from .simulation import Callback, Observer, Simulation, Totals
 from .state import State, StateError
+from .sweeps import SweepError, SweepResult, SweepSpec, sweep, sweep_summary
 from .thermo import Thermo, read_thermo
 from .trajectory import Trajectory, read_state, write_state
 
@@ -17,6 +18,9 @@ __all__ = [
     "Simulation",
     "State",
     "StateError",
+    "SweepError",
+    "SweepResult",
+    "SweepSpec",
     "Thermo",
     "Totals",
     "Trajectory",
@@ -28,6 +32,8 @@ __all__ = [
     "random_packing",
     "read_state",
     "read_thermo",
+    "sweep",
+    "sweep_summary",
     "write_state",
 ]
 __version__ = "0.1.0"

@@ -28,6 +28,10 @@ COLUMNS = (
 )
 AXES = "xyz"
 
+# Columns that are running totals: summaries (the sweep results table) report their final value
+# and time-average every other column. Counters added to the table later belong here too.
+CUMULATIVE = ("time", "events", "collisions", "dissipated_energy")
+
 
 def pressure(state: State, d_kinetic_integral: float, d_virial: float, dt: float) -> float:
     r"""Pressure over an interval from the kinetic-energy integral and the collision virial.
