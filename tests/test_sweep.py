@@ -25,6 +25,7 @@ dim = 2
 n = 20
 [base.collision]
 rule = "inelastic"
+e_n = 0.9
 [base.run]
 until_time = 1.0
 output_interval = 0.5
@@ -108,7 +109,7 @@ def test_base_from_a_file(tmp_path):
 @pytest.mark.parametrize(
     "text, match",
     [
-        ('[grid]\n"collision.e_m" = [0.8]', r"grid: unknown key 'collision.e_m' \(did you mean 'collision.e_n'\?\)"),
+        ('[grid]\n"collision.e_nn" = [0.8]', r"grid: unknown key 'collision.e_nn' \(did you mean 'collision.e_n'\?\)"),
         ('[[points]]\nsystem.pakcing_fraction = 0.1', r"points\[0\]: unknown key 'system.pakcing_fraction' \(did you mean 'system.packing_fraction'\?\)"),
         ("[grid]\n", r"\[grid\] is empty"),
         ('[grid]\n"system.n" = 10', r"grid.system.n: expected a list of values, got 10"),
@@ -123,7 +124,7 @@ def test_base_from_a_file(tmp_path):
         ("replicas = 0", r"replicas must be a positive integer"),
         ('[base.system]\nn = 20', r"nothing to sweep"),
         ("points = []", r"points is empty"),
-        ('[grid]\n"collision.e_n" = [0.9]', r"point 0 \(collision.e_n=0.9\): collision: rule 'elastic' has e_n = 1"),
+        ('[grid]\n"collision.e_n" = [0.9]', r"point 0 \(collision.e_n=0.9\): collision: rule 'elastic' takes no parameters"),
         ('[grid]\n"system.n" = [20, 20.0]', r"grid.system.n: duplicate value 20.0"),
         ('[[points]]\n"system.kT" = 1.0\n[[points]]\n"system.seed" = 1', r"points 0 and 1 \(system.seed=1\) resolve to the same configuration"),
     ],
