@@ -37,23 +37,29 @@ def _pair_times(pos, vel, radius, box, periodic):
 
 
 def _wall_times(pos, vel, radius, box, gravity, periodic):
-    """Earliest wall contact per particle: (time, axis, face) over all walls, by np.roots."""
+    """Earliest wall contact per particle: (time, (axis, face)), textbook quadratic formula, vectorised."""
     n, d = pos.shape
     best = np.full(n, np.inf)
     which = np.full((n, 2), -1)
+    eps = 1e-12 * box.max()
     for k in range(d):
         if periodic[k]:
             continue
         for face, sign in ((0, 1.0), (1, -1.0)):
             # gap h(t) = h0 + u t + a t^2 / 2 to the plane x = -L/2 (face 0) or +L/2 (face 1)
             h0 = sign * pos[:, k] + 0.5 * box[k] - radius
-            u, a = sign * vel[:, k], np.full(n, sign * gravity[k])
-            for i in range(n):
-                roots = np.roots([0.5 * a[i], u[i], h0[i]]) if a[i] != 0 else np.roots([u[i], h0[i]])
-                for t in np.sort(roots[np.isreal(roots)].real):
-                    if t > 1e-12 * box.max() and u[i] + a[i] * t < 0 and t < best[i]:
-                        best[i], which[i] = t, (k, face)
-                        break
+            u, a = sign * vel[:, k], sign * gravity[k]
+            with np.errstate(invalid="ignore", divide="ignore"):
+                if a != 0:
+                    root = np.sqrt(u * u - 2 * a * h0)
+                    cands = np.stack([(-u - root) / a, (-u + root) / a])
+                else:
+                    cands = np.stack([-h0 / u, np.full(n, np.inf)])
+            ok = np.isfinite(cands) & (cands > eps) & (u + a * cands < 0)
+            t = np.where(ok, cands, np.inf).min(axis=0)
+            better = t < best
+            best[better] = t[better]
+            which[better] = (k, face)
     return best, which
 
 
