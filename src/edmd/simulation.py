@@ -40,8 +40,13 @@ class Observer:
 
     Subclasses implement :meth:`observe`; ``interval`` is the spacing, ``start`` the first time
     (the simulation's time when attached, by default). Firing times are ``start + k*interval``
-    computed by multiplication, so they never drift.
+    computed by multiplication, so they never drift. Observers due at the same time fire in
+    order of ``priority`` (then in the order they were added); checkpoints fire last.
+    Observers that hold more than their schedule extend :meth:`checkpoint_data` and
+    :meth:`restore_data` so that a restarted run continues them exactly.
     """
+
+    priority = 0
 
     def __init__(self, interval: float, start: float | None = None):
         if not interval > 0 or not math.isfinite(interval):
@@ -58,6 +63,17 @@ class Observer:
     @property
     def next_time(self) -> float:
         return self.start + self._k * self.interval
+
+    def checkpoint_data(self) -> dict:
+        """Everything needed to continue this observer exactly: JSON values or numpy arrays."""
+        return {"start": self.start, "interval": self.interval, "k": self._k}
+
+    def restore_data(self, data: dict):
+        """Continue from :meth:`checkpoint_data` (called after :meth:`attach`)."""
+        if data["interval"] != self.interval:
+            raise ValueError(f"interval {self.interval!r} differs from the checkpoint's {data['interval']!r}")
+        self.start = data["start"]
+        self._k = int(data["k"])
 
     def fire(self, sim: Simulation, state: State, totals: Totals):
         self.observe(sim, state, totals)
@@ -114,6 +130,12 @@ class Simulation:
         if isinstance(engine, dict):
             engine = EngineOptions(**engine)
         self._engine = Engine(state, engine, e_n=e_n, gravity=gravity)
+        #: the constructor's physics arguments (saved in checkpoints; new arguments belong here)
+        self.params = {
+            "e_n": float(e_n),
+            "gravity": None if gravity is None else [float(g) for g in gravity],
+            "engine": dataclasses.asdict(self._engine.options),
+        }
         self._time = float(state.time)
         self.observers: list[Observer] = []
         self.wall_seconds = 0.0
@@ -162,6 +184,16 @@ class Simulation:
             dissipated=float(e.acc[L.A_DISSIPATED]),
         )
 
+    @classmethod
+    def from_checkpoint(cls, path, observers=()) -> Simulation:
+        """The simulation saved in checkpoint ``path``, continuing exactly (see :mod:`edmd.checkpoint`).
+
+        ``observers`` are attached and restored in order; they must match the checkpoint's.
+        """
+        from .checkpoint import load_checkpoint
+
+        return load_checkpoint(path, observers)
+
     # ------------------------------------------------------------------ observers
     def add(self, observer: Observer) -> Observer:
         """Attach an observer; it fires at its exact times during :meth:`run`."""
@@ -170,7 +202,7 @@ class Simulation:
         return observer
 
     def _fire_due(self):
-        due = [o for o in self.observers if o.next_time <= self._time]
+        due = sorted((o for o in self.observers if o.next_time <= self._time), key=lambda o: o.priority)
         if due:
             state = self.state
             totals = self.totals()
