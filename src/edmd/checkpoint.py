@@ -242,6 +242,8 @@ class Checkpoint(Observer):
         self.wall_interval = wall_interval
         self.metadata = metadata or {}
         self.writes = 0
+        #: simulation time of the last checkpoint this observer wrote (``None`` before the first)
+        self.last_written: float | None = None
         self._sim: Simulation | None = None
         self._last_write = -math.inf
         self._pending: tuple[float, int] | None = None
@@ -262,6 +264,7 @@ class Checkpoint(Observer):
         """Save the attached simulation, which sits at the checkpoint point just resynced."""
         save_checkpoint(self._sim, self.path, self.metadata, resync=False)
         self.writes += 1
+        self.last_written = self._sim.time
         self._last_write = _time.monotonic()
         self._pending = None
 
