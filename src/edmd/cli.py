@@ -37,7 +37,7 @@ def _load_job(config: Path | None, start_from: Path | None, frame: int):
             raise StateError(f"--from: no file {start_from}")
         cfg.system.from_file = str(start_from.resolve())
         cfg.system.from_frame = frame
-        console.print(f"[dim]initial state: frame {frame} of {start_from} ([system] settings are ignored)[/]")
+        console.print(f"[dim]initial state: frame {frame} of {start_from} (\\[system] settings are ignored)[/]")
     return cfg
 
 
