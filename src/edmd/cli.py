@@ -93,12 +93,15 @@ def export(
 
 
 @app.command()
-def plot(run_dir: Path = typer.Argument(Path("edmd-run"), help="A run directory written by `edmd run`.")):
+def plot(
+    run_dir: Path = typer.Argument(Path("edmd-run"), help="A run directory written by `edmd run`."),
+    color: str = typer.Option("speed", "--color", help="Snapshot colouring: 'speed' or 'spin'."),
+):
     """Write the standard figures (PNG) of a run directory into it."""
     from .plots import plot_run
 
     try:
-        files = plot_run(run_dir)
+        files = plot_run(run_dir, color_by=color)
     except (StateError, ValueError, OSError) as exc:
         _fail(str(exc))
     for f in files:

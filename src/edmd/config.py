@@ -262,12 +262,12 @@ rule = "inelastic"
 e_n = 0.9
 
 [run]
-until_time = 200.0
+until_time = 1000.0
 output_interval = 1.0
 
 [output]
-trajectory_interval = 10.0
-checkpoint_interval = 10.0
+trajectory_interval = 50.0
+checkpoint_interval = 50.0
 """
 
 

@@ -111,17 +111,22 @@ def save(ax, path: str | os.PathLike, dpi: int = 120) -> Path:
     return path
 
 
+def _restitution(run_dir: Path) -> float:
+    """The run's normal restitution coefficient (1 when config.toml is missing or unreadable)."""
+    try:
+        return load_config(run_dir / "config.toml").collision.e_n
+    except ConfigError:
+        return 1.0
+
+
 def _haff_for_run(run_dir: Path, table) -> HaffLaw | None:
     """Haff's law for an inelastic run: e_n from config.toml, n, sigma, eta from the first frame."""
-    try:
-        cfg = load_config(run_dir / "config.toml")
-    except ConfigError:
-        return None
+    e_n = _restitution(run_dir)
     traj = run_dir / "trajectory.gsd"
-    if cfg.collision.e_n >= 1.0 or frame_count(traj) == 0:
+    if e_n >= 1.0 or frame_count(traj) == 0:
         return None
     first = read_state(traj, 0)
-    return HaffLaw.from_state(first, cfg.collision.e_n, kT0=float(table["temperature"][0]), t0=float(table["time"][0]))
+    return HaffLaw.from_state(first, e_n, kT0=float(table["temperature"][0]), t0=float(table["time"][0]))
 
 
 def plot_run(run_dir: str | os.PathLike, color_by: str = "speed") -> list[Path]:
@@ -129,7 +134,8 @@ def plot_run(run_dir: str | os.PathLike, color_by: str = "speed") -> list[Path]:
 
     ``temperature.png`` (log-log with Haff's law for inelastic runs) and ``energy.png`` from
     ``thermo.csv``; ``velocity_distribution.png``, ``rdf.png`` (last 5 frames), ``msd.png`` (all
-    frames) and ``snapshot.png`` (last frame) from ``trajectory.gsd``.
+    frames: averaged over time origins for elastic runs, from the first frame for cooling ones,
+    which are not stationary) and ``snapshot.png`` (last frame) from ``trajectory.gsd``.
     """
     run_dir = Path(run_dir)
     if not run_dir.is_dir():
@@ -157,11 +163,9 @@ def _plot_frames(run_dir: Path, traj: Path, frames: int, color_by: str) -> list[
     written.append(save(RDF(bins=max(int(round(r_max / (0.02 * sigma))), 10), r_max=r_max).compute(last).plot(), run_dir / "rdf.png"))
     if frames >= 2:
         states = list(iter_states(traj))
-        try:
-            msd = MSD().compute(states)
-        except ValueError:  # frames not equally spaced (e.g. a trajectory appended to by hand)
-            msd = MSD(mode="direct").compute(states)
-        written.append(save(msd.plot(), run_dir / "msd.png"))
+        equal = np.allclose(np.diff([s.time for s in states]), states[1].time - states[0].time, rtol=1e-9)
+        mode = "window" if equal and _restitution(run_dir) == 1.0 else "direct"
+        written.append(save(MSD(mode).compute(states).plot(), run_dir / "msd.png"))
     written.append(save(plot_snapshot(final, color_by), run_dir / "snapshot.png"))
     return written
 

@@ -99,7 +99,9 @@ class MSD:
     def plot(self, ax=None):
         """MSD against lag time, log-log (lag 0 left out); returns the Axes."""
         ax = axes(ax)
-        ax.loglog(self.lag_times[1:], self.msd[1:], "o-", ms=3, label="MSD")
+        origins = "all time origins" if self.mode == "window" else "from the first frame"
+        ax.loglog(self.lag_times[1:], self.msd[1:], "o-", ms=3, label=f"MSD ({origins})")
         ax.set_xlabel(r"lag time $\tau$")
+        ax.legend(fontsize="small")
         ax.set_ylabel(r"$\langle |\Delta r|^2 \rangle$")
         return ax
