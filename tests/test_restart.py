@@ -13,6 +13,7 @@ import pytest
 from typer.testing import CliRunner
 
 import edmd
+import edmd.runner
 from edmd import Thermo, Trajectory
 from edmd._io import atomic_path
 from edmd.checkpoint import Checkpoint, CheckpointError, load_checkpoint, read_checkpoint, save_checkpoint
@@ -213,3 +214,12 @@ def test_kill_9_mid_run_then_restart_is_bit_for_bit(tmp_path):
     r = runner.invoke(app, ["run", "--restart", str(out), "--until-time", str(t_end)])
     assert r.exit_code == 0, r.output
     assert_same_files(tmp_path / "ref", out, traj="trajectory.gsd")
+
+
+def test_cli_interrupt_points_to_restart(tmp_path, monkeypatch):
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(edmd.runner, "run_directory", interrupted)
+    r = CliRunner().invoke(app, ["run", str(_config(tmp_path, 2, 1.0)), "--out", str(tmp_path / "x")])
+    assert r.exit_code == 130 and f"edmd run --restart {tmp_path / 'x'}" in " ".join(r.output.split())

@@ -68,6 +68,9 @@ def run(
             summary = run_directory(cfg, out, progress=progress and cfg.run.progress)
     except (ConfigError, StateError, CheckpointError, ValueError, OSError) as exc:
         _fail(str(exc))
+    except KeyboardInterrupt:
+        err_console.print(f"[bold yellow]interrupted:[/] continue with `edmd run --restart {out}`")
+        raise typer.Exit(code=130) from None
     table = Table(title=f"edmd run -> {out}", show_header=False)
     for key in ("time", "collisions", "events", "temperature", "pressure_mean", "collisions_per_second", "neighbours", "checkpoint_time"):
         if key in summary:
