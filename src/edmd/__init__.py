@@ -1,5 +1,6 @@
 """edmd: event-driven molecular dynamics of hard and soft spheres and disks."""
 
+from .checkpoint import Checkpoint, CheckpointError, read_checkpoint
 from .config import Config, ConfigError, load_config, parse_config
 from .engine import EngineOptions
 from .initial import lattice, maxwell_boltzmann, radii, random_packing
@@ -11,6 +12,8 @@ from .trajectory import Trajectory, read_state, write_state
 
 __all__ = [
     "Callback",
+    "Checkpoint",
+    "CheckpointError",
     "Config",
     "ConfigError",
     "EngineOptions",
@@ -30,6 +33,7 @@ __all__ = [
     "parse_config",
     "radii",
     "random_packing",
+    "read_checkpoint",
     "read_state",
     "read_thermo",
     "sweep",

@@ -1,4 +1,4 @@
-"""Command line: ``edmd run``, ``edmd init``, ``edmd sweep``."""
+"""Command line: ``edmd run``, ``edmd init``, ``edmd sweep``, ``edmd export``, ``edmd plot``."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from .config import EXAMPLE, Config, ConfigError, load_config
+from .config import EXAMPLE, ConfigError, default_job, load_config
 from .state import StateError
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, help="Event-driven molecular dynamics of hard and soft spheres and disks.")
@@ -24,28 +24,94 @@ def _fail(msg: str):
     raise typer.Exit(code=2)
 
 
+def _load_job(config: Path | None, start_from: Path | None, frame: int):
+    """The configuration of a new run: a file or the built-in showcase, optionally started from a GSD frame."""
+    if config is not None:
+        cfg = load_config(config)
+    else:
+        cfg = default_job()
+        s, c = cfg.system, cfg.collision
+        console.print(
+            f"[dim]no config given: running the built-in showcase, a cooling granular gas "
+            f"({s.dim}D, N = {s.n}, eta = {s.packing_fraction}, e_n = {c.e_n}, until t = {cfg.run.until_time:g})[/]"
+        )
+    if start_from is not None:
+        if not start_from.is_file():
+            raise StateError(f"--from: no file {start_from}")
+        cfg.system.from_file = str(start_from.resolve())
+        cfg.system.from_frame = frame
+        console.print(f"[dim]initial state: frame {frame} of {start_from} (\\[system] settings are ignored)[/]")
+    return cfg
+
+
 @app.command()
 def run(
-    config: Path = typer.Argument(None, help="TOML configuration; without it a built-in default runs."),
-    out: Path = typer.Option(Path("edmd-run"), "--out", "-o", help="Run directory for config, thermo, trajectory."),
+    config: Path = typer.Argument(None, help="TOML configuration; without it the built-in showcase runs."),
+    out: Path = typer.Option(Path("edmd-run"), "--out", "-o", help="Run directory for config, thermo, trajectory, checkpoint, plots."),
+    start_from: Path = typer.Option(None, "--from", help="Start from a frame of this GSD file ([system] is then ignored)."),
+    frame: int = typer.Option(-1, "--frame", help="Frame of --from (negative counts from the end)."),
+    restart: Path = typer.Option(None, "--restart", help="Continue the run in this directory from its checkpoint."),
+    until_time: float = typer.Option(None, "--until-time", help="With --restart: new end time (simulation time)."),
     progress: bool = typer.Option(True, "--progress/--no-progress", help="Show a progress bar."),
 ):
-    """Run a simulation and write its run directory."""
-    from .runner import run_directory
+    """Run a simulation and write its run directory (or continue one with --restart)."""
+    from .checkpoint import CheckpointError
+    from .runner import restart_directory, run_directory
 
     try:
-        cfg = load_config(config) if config is not None else Config()
-        if config is None:
-            console.print("[dim]no config given: running the built-in default (3D hard-sphere fluid, N = 4000, eta = 0.3)[/]")
-        summary = run_directory(cfg, out, progress=progress and cfg.run.progress)
-    except (ConfigError, StateError, ValueError) as exc:
+        if restart is not None:
+            if config is not None or start_from is not None:
+                raise ConfigError("--restart continues a run directory with its own configuration: give no CONFIG or --from")
+            out = restart
+            summary = restart_directory(restart, until_time=until_time, progress=None if progress else False)
+        else:
+            if until_time is not None:
+                raise ConfigError("--until-time goes with --restart; set [run] until_time in the configuration")
+            cfg = _load_job(config, start_from, frame)
+            summary = run_directory(cfg, out, progress=progress and cfg.run.progress)
+    except (ConfigError, StateError, CheckpointError, ValueError, OSError) as exc:
         _fail(str(exc))
+    except KeyboardInterrupt:
+        err_console.print(f"[bold yellow]interrupted:[/] continue with `edmd run --restart {out}`")
+        raise typer.Exit(code=130) from None
     table = Table(title=f"edmd run -> {out}", show_header=False)
-    for key in ("time", "collisions", "events", "temperature", "pressure_mean", "collisions_per_second", "neighbours"):
+    for key in ("time", "collisions", "events", "temperature", "pressure_mean", "collisions_per_second", "neighbours", "checkpoint_time"):
         if key in summary:
             v = summary[key]
             table.add_row(key, f"{v:.6g}" if isinstance(v, float) else str(v))
     console.print(table)
+
+
+@app.command()
+def export(
+    source: Path = typer.Argument(..., help="A GSD file or a run directory (its trajectory.gsd)."),
+    output: Path = typer.Argument(..., help="Output file: .xyz (extended XYZ: ASE, OVITO) or .csv."),
+    frame: int = typer.Option(-1, "--frame", help="Frame to export (negative counts from the end)."),
+):
+    """Export one frame as extended XYZ or CSV."""
+    from .export import export_frame
+
+    try:
+        state = export_frame(source, output, frame)
+    except (StateError, ValueError, OSError) as exc:
+        _fail(str(exc))
+    console.print(f"wrote {output} (t = {state.time:g}, N = {state.n})")
+
+
+@app.command()
+def plot(
+    run_dir: Path = typer.Argument(Path("edmd-run"), help="A run directory written by `edmd run`."),
+    color: str = typer.Option("speed", "--color", help="Snapshot colouring: 'speed' or 'spin'."),
+):
+    """Write the standard figures (PNG) of a run directory into it."""
+    from .plots import plot_run
+
+    try:
+        files = plot_run(run_dir, color_by=color)
+    except (StateError, ValueError, OSError) as exc:
+        _fail(str(exc))
+    for f in files:
+        console.print(f"wrote {f}")
 
 
 @app.command()

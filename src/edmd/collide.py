@@ -274,3 +274,29 @@ def pack(rule, wall: Wall, fp: np.ndarray, ip: np.ndarray):
 def uses_rotation(rule, wall: Wall) -> bool:
     """Whether spins change in collisions (rough particles or rough walls)."""
     return rule_laws(rule)[1][0] != L.TANGENT_SMOOTH or wall.laws()[1][0] != L.TANGENT_SMOOTH
+
+
+_KINDS = {cls.__name__: cls for cls in (Inelastic, Rough, Viscoelastic, TC, Wall)}
+
+
+def to_dict(obj) -> dict:
+    """A JSON-ready description of a rule or wall (``{"type": ..., fields...}``, nested for TC).
+
+    Example:
+        >>> to_dict(TC(Rough(0.9, beta=0.0), 1e-4))["rule"]["type"]
+        'Rough'
+    """
+    out = {"type": type(obj).__name__}
+    for field in dataclasses.fields(obj):
+        value = getattr(obj, field.name)
+        out[field.name] = to_dict(value) if dataclasses.is_dataclass(value) else value
+    return out
+
+
+def from_dict(data: dict):
+    """Rebuild a rule or wall from :func:`to_dict` output."""
+    data = dict(data)
+    kind = _KINDS.get(data.pop("type", None))
+    if kind is None:
+        raise RuleError(f"unknown collision rule description {data!r}")
+    return kind(**{k: from_dict(v) if isinstance(v, dict) else v for k, v in data.items()})

@@ -64,6 +64,8 @@ class SystemConfig(_Section):
     density: float | None = Field(None, gt=0, description="material density: mass = density * volume")
     aspect: list[Annotated[float, Field(gt=0)]] | None = None
     gravity: list[float] | None = Field(None, description="uniform acceleration, d components")
+    from_file: str | None = Field(None, description="start from a frame of this GSD file (other keys then ignored)")
+    from_frame: int = Field(-1, description="frame of from_file (negative counts from the end)")
 
     @model_validator(mode="after")
     def _consistent(self):
@@ -182,6 +184,10 @@ class OutputConfig(_Section):
     thermo: bool = True
     trajectory: bool = True
     trajectory_interval: float | None = Field(None, gt=0, description="default: run.output_interval")
+    checkpoint: bool = True
+    checkpoint_interval: float | None = Field(None, gt=0, description="simulation time; default: run.output_interval")
+    checkpoint_wall_interval: float | None = Field(None, gt=0, description="seconds between checkpoint writes")
+    plots: bool = True
 
 
 class Config(_Section):
@@ -324,4 +330,36 @@ skin = 0.5                # neighbour-list shell, in mean diameters
 thermo = true             # thermo.csv: time, events, collisions, temperature, pressure, ...
 trajectory = true         # trajectory.gsd (GSD 5, double precision)
 # trajectory_interval = 5.0
+checkpoint = true         # checkpoint.gsd: continue with `edmd run --restart DIR`, bit for bit
+# checkpoint_interval = 10.0       # simulation time between checkpoint points (default: output_interval)
+# checkpoint_wall_interval = 600   # write a point only if this many seconds passed since the last write
+plots = true              # PNG figures at the end of the run (also: `edmd plot DIR`)
 """
+
+#: The built-in job of ``edmd run`` without a configuration: a freely cooling granular gas
+#: (Haff's law, physics.md §5.4) that leaves every kind of output behind.
+DEFAULT_JOB = """\
+[system]
+dim = 3
+n = 8000
+packing_fraction = 0.15
+kT = 1.0
+seed = 1
+
+[collision]
+rule = "inelastic"
+e_n = 0.9
+
+[run]
+until_time = 1000.0
+output_interval = 1.0
+
+[output]
+trajectory_interval = 50.0
+checkpoint_interval = 50.0
+"""
+
+
+def default_job() -> Config:
+    """The built-in showcase job (:data:`DEFAULT_JOB`)."""
+    return parse_config(tomllib.loads(DEFAULT_JOB))

@@ -264,11 +264,32 @@ class Engine:
             elif status != L.ST_EVENTS:
                 return status
 
-    def resync(self):
-        """Stream everything to the current time, re-base the clock and rebuild (deterministic)."""
+    def resync(self, t: float | None = None):
+        """Stream everything to time ``t`` (default: now), re-base the clock and rebuild (deterministic).
+
+        ``t`` may lie after the last event only if no event is due before it (the engine has
+        just returned ``ST_TIME`` for a stop time ``>= t``): checkpoints resync at their exact time.
+        """
         self._flush_log()
-        self.acc[L.A_KE_INT] += self._kinetic_tail(float(self.acc[L.A_NOW]))
-        self.load(self.snapshot(self.now))
+        local = float(self.acc[L.A_NOW]) if t is None else float(t) - self.t_origin
+        self.acc[L.A_KE_INT] += self._kinetic_tail(local)
+        self.load(self.snapshot(self.now if t is None else float(t)))
+
+    def restore(self, state: State, counters: np.ndarray, accumulators: np.ndarray, list_capacity: int):
+        """Rebuild the engine exactly as it was right after a resync to ``state`` (a checkpoint).
+
+        ``counters``, ``accumulators`` and ``list_capacity`` are the values saved right after
+        that resync; the maintenance schedule (``events_at_sync``) follows from the counters.
+        """
+        if counters.shape != self.cnt.shape or accumulators.shape != self.acc.shape:
+            raise StateError(
+                f"checkpoint counters/accumulators have shapes {counters.shape}/{accumulators.shape}, "
+                f"this engine expects {self.cnt.shape}/{self.acc.shape}"
+            )
+        self.cnt[:] = counters
+        self.acc[:] = accumulators
+        self.list_capacity = int(list_capacity)
+        self.load(state)
 
     # ------------------------------------------------------------------ observation
     def stream(self, t: float):

@@ -16,7 +16,7 @@ from .engine import Engine, EngineError, EngineOptions
 from .state import State
 
 
-@dataclasses.dataclass
+@dataclasses.dataclass(eq=False)
 class Totals:
     """Cumulative counters and integrals of a simulation since its start (monotonic).
 
@@ -40,14 +40,34 @@ class Totals:
     wall_impulse: np.ndarray
     wall_collisions: int
 
+    def __eq__(self, other):
+        return isinstance(other, Totals) and self.to_dict() == other.to_dict()
+
+    def to_dict(self) -> dict:
+        """JSON-ready (exact: floats survive JSON's repr round trip)."""
+        out = dataclasses.asdict(self)
+        out["wall_impulse"] = self.wall_impulse.tolist()
+        return out
+
+    @classmethod
+    def from_dict(cls, data: dict) -> Totals:
+        data = dict(data)
+        data["wall_impulse"] = np.asarray(data["wall_impulse"], np.float64).reshape(-1, 2)
+        return cls(**data)
+
 
 class Observer:
     """Something that looks at the system at exact, equally spaced simulation times.
 
     Subclasses implement :meth:`observe`; ``interval`` is the spacing, ``start`` the first time
     (the simulation's time when attached, by default). Firing times are ``start + k*interval``
-    computed by multiplication, so they never drift.
+    computed by multiplication, so they never drift. Observers due at the same time fire in
+    order of ``priority`` (then in the order they were added); checkpoints fire last.
+    Observers that hold more than their schedule extend :meth:`checkpoint_data` and
+    :meth:`restore_data` so that a restarted run continues them exactly.
     """
+
+    priority = 0
 
     def __init__(self, interval: float, start: float | None = None):
         if not interval > 0 or not math.isfinite(interval):
@@ -64,6 +84,17 @@ class Observer:
     @property
     def next_time(self) -> float:
         return self.start + self._k * self.interval
+
+    def checkpoint_data(self) -> dict:
+        """Everything needed to continue this observer exactly: JSON values or numpy arrays."""
+        return {"start": self.start, "interval": self.interval, "k": self._k}
+
+    def restore_data(self, data: dict):
+        """Continue from :meth:`checkpoint_data` (called after :meth:`attach`)."""
+        if data["interval"] != self.interval:
+            raise ValueError(f"interval {self.interval!r} differs from the checkpoint's {data['interval']!r}")
+        self.start = data["start"]
+        self._k = int(data["k"])
 
     def fire(self, sim: Simulation, state: State, totals: Totals):
         self.observe(sim, state, totals)
@@ -133,9 +164,20 @@ class Simulation:
             collision = collide.Inelastic(e_n)
         if isinstance(engine, dict):
             engine = EngineOptions(**engine)
+        if isinstance(collision, dict):
+            collision = collide.from_dict(collision)
+        if isinstance(walls, dict):
+            walls = collide.from_dict(walls)
         self._engine = Engine(state, engine, rule=collision, wall=walls, gravity=gravity)
         self.gravity = self._engine.grav[: state.dim].copy()
         _warn_viscoelastic_validity(state, self._engine.rule, self._engine.wall, self.gravity)
+        #: the constructor's physics arguments (saved in checkpoints; new arguments belong here)
+        self.params = {
+            "collision": collide.to_dict(self._engine.rule),
+            "walls": collide.to_dict(self._engine.wall),
+            "gravity": None if gravity is None else [float(g) for g in gravity],
+            "engine": dataclasses.asdict(self._engine.options),
+        }
         self._time = float(state.time)
         self.observers: list[Observer] = []
         self.wall_seconds = 0.0
@@ -186,6 +228,16 @@ class Simulation:
             wall_collisions=int(e.cnt[L.C_WALL]),
         )
 
+    @classmethod
+    def from_checkpoint(cls, path, observers=()) -> Simulation:
+        """The simulation saved in checkpoint ``path``, continuing exactly (see :mod:`edmd.checkpoint`).
+
+        ``observers`` are attached and restored in order; they must match the checkpoint's.
+        """
+        from .checkpoint import load_checkpoint
+
+        return load_checkpoint(path, observers)
+
     # ------------------------------------------------------------------ observers
     def add(self, observer: Observer) -> Observer:
         """Attach an observer; it fires at its exact times during :meth:`run`."""
@@ -194,7 +246,7 @@ class Simulation:
         return observer
 
     def _fire_due(self):
-        due = [o for o in self.observers if o.next_time <= self._time]
+        due = sorted((o for o in self.observers if o.next_time <= self._time), key=lambda o: o.priority)
         if due:
             state = self.state
             totals = self.totals()

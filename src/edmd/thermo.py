@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import csv
+import io
 import math
 import os
 
 import numpy as np
 
+from ._io import write_text
 from .simulation import Observer, Simulation, Totals
 from .state import State
 
@@ -123,8 +125,35 @@ class Thermo(Observer):
             self._writer = csv.DictWriter(self._file, fieldnames=list(row))
             if new:
                 self._writer.writeheader()
-        self._writer.writerow({k: repr(float(v)) if isinstance(v, float) else v for k, v in row.items()})
+        self._writer.writerow(_csv_row(row))
         self._file.flush()
+
+    def checkpoint_data(self) -> dict:
+        """Schedule, the rows (exact float64 table) and the totals of the last row."""
+        data = super().checkpoint_data()
+        data["columns"] = list(COLUMNS)
+        data["integer_columns"] = [c for c in COLUMNS if self.rows and isinstance(self.rows[0][c], int)]
+        data["last"] = None if self._last is None else self._last.to_dict()
+        if self.rows:
+            data["rows"] = np.array([[float(r[c]) for c in COLUMNS] for r in self.rows], np.float64)
+        return data
+
+    def restore_data(self, data: dict):
+        """Continue from a checkpoint; the CSV file is rewritten (atomically) from the saved rows."""
+        super().restore_data(data)
+        columns, ints = list(data["columns"]), set(data["integer_columns"])
+        if columns != list(COLUMNS):
+            raise ValueError(f"thermo columns {columns} differ from this version's {list(COLUMNS)}")
+        table = np.asarray(data.get("rows", np.zeros((0, len(columns)))), np.float64)
+        self.rows = [{c: int(v) if c in ints else float(v) for c, v in zip(columns, r)} for r in table]
+        self._last = None if data["last"] is None else Totals.from_dict(data["last"])
+        self.close()
+        if self.path is not None:
+            buf = io.StringIO(newline="")
+            writer = csv.DictWriter(buf, fieldnames=COLUMNS)
+            writer.writeheader()
+            writer.writerows(_csv_row(r) for r in self.rows)
+            write_text(self.path, buf.getvalue())
 
     def table(self) -> dict[str, np.ndarray]:
         """The rows as a dict of column arrays."""
@@ -134,6 +163,11 @@ class Thermo(Observer):
         if self._file is not None:
             self._file.close()
             self._file = None
+
+
+def _csv_row(row: dict) -> dict:
+    """A thermo row as CSV cells: floats as their shortest exact ``repr``."""
+    return {k: repr(float(v)) if isinstance(v, float) else v for k, v in row.items()}
 
 
 def read_thermo(path: str | os.PathLike) -> dict[str, np.ndarray]:
