@@ -35,9 +35,9 @@ def _observers(d: Path, ck_interval=0.5, wall=None):
     ]
 
 
-def _run(d: Path, state, until, e_n=1.0, engine=None, **kw):
+def _run(d: Path, state, until, e_n=1.0, engine=None, physics=None, **kw):
     d.mkdir(exist_ok=True)
-    sim = edmd.Simulation(state, e_n=e_n, engine=engine)
+    sim = edmd.Simulation(state, engine=engine, **(physics or {"e_n": e_n}))
     for o in _observers(d, **kw):
         sim.add(o)
     sim.run(until_time=until)
@@ -92,6 +92,31 @@ def test_interrupted_run_continues_bit_for_bit(tmp_path, dim, eta, mode):
     assert sim.totals() == whole.totals()
     assert np.array_equal(sim.engine.cnt, whole.engine.cnt)
     assert whole.events > 3 * 1.5 * 400  # several maintenance resyncs on the way
+
+
+def test_granular_run_with_tc_walls_and_gravity_restarts_bit_for_bit(tmp_path, dim):
+    """Rough particles, TC memory, Coulomb walls and gravity all survive a checkpoint exactly."""
+    from edmd import collide
+
+    periodic = [True] * (dim - 1) + [False]
+    s = edmd.random_packing(300, 0.2, dim=dim, periodic=periodic, seed=9, radius={"kind": "uniform", "min": 0.4, "max": 0.6}, density=1.0)
+    s = edmd.maxwell_boltzmann(s, 1.0, seed=10, spin=True)
+    g = np.zeros(dim)
+    g[-1] = -0.5
+    physics = {
+        "collision": collide.TC(collide.Rough(collide.Viscoelastic(young=1e4, poisson=0.3, A=1e-3), beta=0.1), 0.05),
+        "walls": collide.Wall(e_n=0.7, beta=0.0, mu=0.4),
+        "gravity": g,
+    }
+    whole = _run(tmp_path / "whole", s, 4.0, physics=physics)
+    _run(tmp_path / "part", s, 2.3, physics=physics)
+    sim = load_checkpoint(tmp_path / "part" / "ck.gsd", _observers(tmp_path / "part"))
+    assert np.isfinite(sim.state.last_collision).any()
+    sim.run(until_time=4.0)
+    sim.close()
+    assert_same_files(tmp_path / "whole", tmp_path / "part")
+    assert sim.totals() == whole.totals() and whole.engine.cnt[10] > 0  # TC was active
+    assert whole.totals().wall_collisions > 50
 
 
 def test_wall_clock_interval_decides_only_what_is_written(tmp_path):

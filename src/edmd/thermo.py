@@ -131,33 +131,39 @@ class Thermo(Observer):
     def checkpoint_data(self) -> dict:
         """Schedule, the rows (exact float64 table) and the totals of the last row."""
         data = super().checkpoint_data()
-        data["columns"] = list(COLUMNS)
-        data["integer_columns"] = [c for c in COLUMNS if self.rows and isinstance(self.rows[0][c], int)]
+        columns = self.columns()
+        data["columns"] = columns
+        data["integer_columns"] = [c for c in columns if self.rows and isinstance(self.rows[0][c], int)]
         data["last"] = None if self._last is None else self._last.to_dict()
         if self.rows:
-            data["rows"] = np.array([[float(r[c]) for c in COLUMNS] for r in self.rows], np.float64)
+            data["rows"] = np.array([[float(r[c]) for c in columns] for r in self.rows], np.float64)
         return data
+
+    def columns(self) -> list[str]:
+        """The table's columns: :data:`COLUMNS` plus one ``wall_pressure_<axis>`` per wall axis."""
+        return list(self.rows[0]) if self.rows else list(COLUMNS)
 
     def restore_data(self, data: dict):
         """Continue from a checkpoint; the CSV file is rewritten (atomically) from the saved rows."""
         super().restore_data(data)
         columns, ints = list(data["columns"]), set(data["integer_columns"])
-        if columns != list(COLUMNS):
-            raise ValueError(f"thermo columns {columns} differ from this version's {list(COLUMNS)}")
+        extra = columns[len(COLUMNS) :]
+        if columns[: len(COLUMNS)] != list(COLUMNS) or not all(c.startswith("wall_pressure_") for c in extra):
+            raise ValueError(f"thermo columns {columns} differ from this version's {list(COLUMNS)} (+ wall pressures)")
         table = np.asarray(data.get("rows", np.zeros((0, len(columns)))), np.float64)
         self.rows = [{c: int(v) if c in ints else float(v) for c, v in zip(columns, r)} for r in table]
         self._last = None if data["last"] is None else Totals.from_dict(data["last"])
         self.close()
         if self.path is not None:
             buf = io.StringIO(newline="")
-            writer = csv.DictWriter(buf, fieldnames=COLUMNS)
+            writer = csv.DictWriter(buf, fieldnames=columns)
             writer.writeheader()
             writer.writerows(_csv_row(r) for r in self.rows)
             write_text(self.path, buf.getvalue())
 
     def table(self) -> dict[str, np.ndarray]:
         """The rows as a dict of column arrays."""
-        return {c: np.array([r[c] for r in self.rows]) for c in (self.rows[0] if self.rows else COLUMNS)}
+        return {c: np.array([r[c] for r in self.rows]) for c in self.columns()}
 
     def close(self):
         if self._file is not None:
