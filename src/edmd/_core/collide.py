@@ -15,8 +15,10 @@ A flat wall is the limit :math:`m_j, I_j \\to \\infty` (§1.3). Two-dimensional 
 the plane with spin along :math:`z`; the 3D formulas then reduce exactly to the 2D ones of §2.3.
 
 The energy lost is booked as the exact before/after difference of the particles' kinetic
-(translational + rotational) energies, so kinetic + potential + dissipated energy is conserved
-to round-off whatever the rule.
+(translational + rotational) energies for rough rules and walls, and by the closed form
+:math:`-\tfrac12\mu(1-e_n^2)g_n^2` for smooth particle pairs, so kinetic + potential +
+dissipated energy is conserved to round-off whatever the rule. ``last_collision`` (the TC
+memory) is only kept when the TC model is on.
 """
 
 import math
@@ -154,17 +156,23 @@ def collide_pair(t, P, mass, omega, inertia, tlast, i, j, geo, fp, ip, etab, acc
     else:
         e = normal_restitution(ip[L.IP_NORMAL], fp[L.FP_EN], -gn, 1.0 / inv_mu, ri * rj / (ri + rj), fp, etab)
     jx, jy, jz, vn, vt = impulse(nx, ny, nz, gx, gy, gz, wx, wy, wz, inv_mu, inv_mt, e, beta, fp[L.FP_MU], tangent)
-    k0 = _energy(P, mass, omega, inertia, i, False) + _energy(P, mass, omega, inertia, j, False)
-    e0 = _energy(P, mass, omega, inertia, i, spin) + _energy(P, mass, omega, inertia, j, spin)
+    if spin:
+        k0 = _energy(P, mass, omega, inertia, i, False) + _energy(P, mass, omega, inertia, j, False)
+        e0 = _energy(P, mass, omega, inertia, i, True) + _energy(P, mass, omega, inertia, j, True)
     _kick(P, omega, i, jx, jy, jz, nx, ny, nz, 1.0 / mi, ri / inertia[i], spin)
     _kick(P, omega, j, jx, jy, jz, nx, ny, nz, -1.0 / mj, rj / inertia[j], spin)
-    k1 = _energy(P, mass, omega, inertia, i, False) + _energy(P, mass, omega, inertia, j, False)
-    e1 = _energy(P, mass, omega, inertia, i, spin) + _energy(P, mass, omega, inertia, j, spin)
+    if spin:
+        dk = _energy(P, mass, omega, inertia, i, False) + _energy(P, mass, omega, inertia, j, False) - k0
+        lost = e0 - _energy(P, mass, omega, inertia, i, True) - _energy(P, mass, omega, inertia, j, True)
+    else:  # smooth: physics.md §2.1, Delta E = -mu (1 - e^2) g_n^2 / 2, spins untouched
+        dk = -0.5 * (1.0 - e * e) * gn * gn / inv_mu
+        lost = -dk
     acc[L.A_VIRIAL] += r * (jx * nx + jy * ny + jz * nz)
-    acc[L.A_KE] += k1 - k0
-    acc[L.A_DISSIPATED] += e0 - e1
-    tlast[i] = t
-    tlast[j] = t
+    acc[L.A_KE] += dk
+    acc[L.A_DISSIPATED] += lost
+    if ip[L.IP_TC]:
+        tlast[i] = t
+        tlast[j] = t
     return vn, vt
 
 
@@ -213,4 +221,5 @@ def collide_wall(t, P, mass, omega, inertia, tlast, i, axis, face, fp, ip, etab,
     acc[L.A_PY] += jy
     acc[L.A_PZ] += jz
     acc[L.A_WALL + 2 * axis + face] += jx * nx + jy * ny + jz * nz
-    tlast[i] = t
+    if ip[L.IP_TC]:
+        tlast[i] = t
