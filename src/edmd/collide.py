@@ -146,7 +146,26 @@ class Inelastic:
 
 
 @dataclasses.dataclass(frozen=True)
-class Rough:
+class _NormalTangential:
+    """Normal law (number or :class:`Viscoelastic`) and tangential law (``beta``/``e_t``, ``mu``)."""
+
+    e_n: float | Viscoelastic = 1.0
+    beta: float | None = None
+    e_t: float | None = None
+    mu: float | None = None
+
+    def __post_init__(self):
+        _normal_law(self.e_n)
+        _, b, _ = _tangential_law(self.beta, self.e_t, self.mu)
+        object.__setattr__(self, "beta", b)  # one convention inside: beta
+        object.__setattr__(self, "e_t", None)
+
+    def laws(self):
+        return _normal_law(self.e_n), _tangential_law(self.beta, None, self.mu)
+
+
+@dataclasses.dataclass(frozen=True)
+class Rough(_NormalTangential):
     r"""Rough spheres/disks: normal and tangential restitution with rotation (physics.md §2.3).
 
     .. math::
@@ -161,20 +180,6 @@ class Rough:
         >>> Rough(e_n=0.9, beta=0.0).beta, Rough(e_n=0.9, e_t=0.4).beta
         (0.0, -0.4)
     """
-
-    e_n: float | Viscoelastic = 1.0
-    beta: float | None = None
-    e_t: float | None = None
-    mu: float | None = None
-
-    def __post_init__(self):
-        _normal_law(self.e_n)
-        _, b, _ = _tangential_law(self.beta, self.e_t, self.mu)
-        object.__setattr__(self, "beta", b)
-        object.__setattr__(self, "e_t", None)
-
-    def laws(self):
-        return _normal_law(self.e_n), _tangential_law(self.beta, None, self.mu)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -204,7 +209,7 @@ class TC:
 
 
 @dataclasses.dataclass(frozen=True)
-class Wall:
+class Wall(_NormalTangential):
     """Restitution of the hard walls that close every non-periodic axis (physics.md §1.3).
 
     ``e_n`` (a number or :class:`Viscoelastic`, with :math:`\\mu = m_i`, :math:`R_{\\rm eff} = R_i`),
@@ -215,19 +220,6 @@ class Wall:
         0.8
     """
 
-    e_n: float | Viscoelastic = 1.0
-    beta: float | None = None
-    e_t: float | None = None
-    mu: float | None = None
-
-    def __post_init__(self):
-        _normal_law(self.e_n)
-        _, b, _ = _tangential_law(self.beta, self.e_t, self.mu)
-        object.__setattr__(self, "beta", b)
-        object.__setattr__(self, "e_t", None)
-
-    def laws(self):
-        return _normal_law(self.e_n), _tangential_law(self.beta, None, self.mu)
 
 
 Rule = Inelastic | Rough | Viscoelastic | TC
