@@ -58,6 +58,9 @@ def run(
     from .checkpoint import CheckpointError
     from .runner import restart_directory, run_directory
 
+    if not any((Path(__file__).parent / "_core" / "__pycache__").glob("loop.run_events-*.nbi")):
+        console.print("[dim]first run on this machine: compiling the core (about a minute, cached afterwards)[/]")
+
     try:
         if restart is not None:
             if config is not None or start_from is not None:

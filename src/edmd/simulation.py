@@ -169,6 +169,7 @@ class Simulation:
         if isinstance(walls, dict):
             walls = collide.from_dict(walls)
         self._engine = Engine(state, engine, rule=collision, wall=walls, gravity=gravity)
+        self._engine.compile()  # once per machine (cached on disk); kept out of wall_seconds
         self.gravity = self._engine.grav[: state.dim].copy()
         _warn_viscoelastic_validity(state, self._engine.rule, self._engine.wall, self.gravity)
         #: the constructor's physics arguments (saved in checkpoints; new arguments belong here)
