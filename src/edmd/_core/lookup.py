@@ -24,7 +24,7 @@ import math
 import numpy as np
 
 from .jit import hot, jit
-from .contact import MODEL_HERTZ
+from .contact import MODEL_HERTZ, contact_scales, table_coordinates
 from .twobody import dashpot_central, solve_scaled
 
 AX_LINEAR = 0
@@ -176,14 +176,57 @@ def lookup(model, values, tg, ctab, cgeo, u1, lam_v, b, W):
 
     Returns ``(Phi, D, tau_c, eps_hat, X_c, psi_c)`` like :func:`~edmd._core.twobody.solve_scaled`
     (NaNs outside the table's box), with :math:`X_c = c\hat\varepsilon`, :math:`D = 1 - \Lambda X_c`.
+    Elastic contacts (``u1 = 0``) get the exact :math:`\hat\varepsilon = D = 1` (energy conservation).
     """
     n0, n1, n2 = lookup_normalised(values, tg, u1, lam_v, b, W)
     c, lam, tan_a = solver_parameters(model, u1, lam_v, b)
     tau0, e0 = central_values(model, c, ctab, cgeo)
     psi = n0 * tau0
-    eps = n2 * e0
+    eps = n2 * e0 if c > 0.0 else 1.0 + 0.0 * n2  # (keeps the NaN of a point outside the box)
     xc = c * eps
     return lam * tan_a * psi, 1.0 - lam * xc, n1 * tau0, eps, xc, psi
+
+
+@jit
+def lookup_many(model, values, tg, ctab, cgeo, u1s, lvs, bs, out, W):
+    """:func:`lookup` at many points; ``out[k] = (Phi, D, tau_c, eps_hat, X_c, psi_c)``."""
+    for k in range(u1s.shape[0]):
+        r = lookup(model, values, tg, ctab, cgeo, u1s[k], lvs[k], bs[k], W)
+        for q in range(6):
+            out[k, q] = r[q]
+
+
+@jit
+def matrix_of_restitution(model, a, b, mu, reff, sigma, vn, vt, use_table, values, tg, ctab, cgeo, rtol, W, K):
+    r"""Matrix of restitution of a physical impact, from a table or the direct solver (physics.md §4.5, §4.7).
+
+    The entry point of event-driven callers: contact constants ``(a, b)`` (see
+    :mod:`edmd._core.contact`), pair constants, normal and tangential impact speeds. With
+    ``use_table`` the table is interpolated and the direct solver (tolerance ``rtol``) takes
+    over outside its box; otherwise the solver is used. ``W``: scratch ``(3, p + 1)``; ``K``:
+    scratch ``(13, 3)``.
+
+    Returns ``(Phi, D, t_c, eps_hat, from_table)`` with the physical contact duration ``t_c``.
+    """
+    c, lam, ts, _ls = contact_scales(model, a, b, mu, reff, sigma, vn)
+    if use_table:
+        v = math.sqrt(vn * vn + vt * vt)
+        u1, lam_v = table_coordinates(model, a, b, mu, reff, sigma, v)
+        r = lookup(model, values, tg, ctab, cgeo, u1, lam_v, vt / v, W)
+        if r[2] == r[2]:
+            return r[0], r[1], r[2] * ts, r[3], True
+    r = solve_scaled(model, c, lam, vt / vn, rtol, K)
+    return r[0], r[1], r[2] * ts, r[3], False
+
+
+@jit
+def direct_many(model, u1s, lvs, bs, rtol, out, K):
+    """Direct solves at table coordinates ``(u1s[k], lvs[k], bs[k])``; ``out[k]`` as in :func:`lookup_many`."""
+    for k in range(u1s.shape[0]):
+        c, lam, tan_a = solver_parameters(model, u1s[k], lvs[k], bs[k])
+        r = solve_scaled(model, c, lam, tan_a, rtol, K)
+        for q in range(6):
+            out[k, q] = r[q]
 
 
 @jit
