@@ -52,11 +52,12 @@ def state_to_frame(state: State, totals: Totals | None = None) -> gsd.hoomd.Fram
     return f
 
 
-def frame_to_state(frame: gsd.hoomd.Frame) -> State:
+def frame_to_state(frame: gsd.hoomd.Frame, check_overlaps: bool = True) -> State:
     """Rebuild a :class:`State` from a GSD frame (exact for frames written by edmd).
 
     Frames from other programs work too: the box then comes from the (single precision)
     configuration chunk, radii from diameters (default 1), masses default to 1.
+    ``check_overlaps=False`` accepts overlapping particles (soft-sphere frames, :mod:`edmd.dem`).
     """
     d = int(frame.configuration.dimensions or 3)
     n = int(frame.particles.N)
@@ -95,11 +96,14 @@ def frame_to_state(frame: gsd.hoomd.Frame) -> State:
         inertia=inertia,
         image=image,
         periodic=None if periodic is None else np.asarray(periodic, bool),
+        check_overlaps=check_overlaps,
     )
 
 
-def read_state(path: str | os.PathLike, frame: int = -1) -> State:
+def read_state(path: str | os.PathLike, frame: int = -1, check_overlaps: bool = True) -> State:
     """The :class:`State` stored in frame ``frame`` of a GSD file (default: the last).
+
+    ``check_overlaps=False`` reads frames of soft particles in contact (:mod:`edmd.dem`).
 
     Example:
         >>> import edmd, tempfile, os
@@ -113,7 +117,7 @@ def read_state(path: str | os.PathLike, frame: int = -1) -> State:
         with gsd.hoomd.open(str(path), "r") as traj:
             if len(traj) == 0:
                 raise StateError(f"{path} holds no frames")
-            return frame_to_state(traj[frame])
+            return frame_to_state(traj[frame], check_overlaps)
     except (OSError, RuntimeError, ValueError, KeyError) as exc:
         if isinstance(exc, StateError):
             raise
