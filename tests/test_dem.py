@@ -247,5 +247,73 @@ def test_bad_input():
         DEMSimulation(state, LinearDashpot(k=1e4), dt=0.5).run(until_time=5.0)
 
 
+DEM_CONFIG = """
+[system]
+dim = {dim}
+n = 200
+packing_fraction = 0.1
+[run]
+until_time = 1.0
+output_interval = 0.25
+progress = false
+[integrator]
+kind = "dem"
+steps_per_contact = 30
+[contact]
+model = "dashpot"
+k = 1e4
+e_n = 0.8
+"""
+
+
+def test_config_sections():
+    from edmd.config import ConfigError, dump_config, parse_config
+
+    cfg = parse_config({"integrator": {"kind": "dem"}, "contact": {"model": "hertz", "young": 1e7, "poisson": 0.3, "A": 1e-5}})
+    assert cfg.contact.build(1.0) == Hertz(1e7, 0.3, 1e-5)
+    d = parse_config({"integrator": {"kind": "dem"}, "contact": {"model": "dashpot", "k": 1e4, "e_n": 0.8}}).contact.build(2.0)
+    assert d.central(2.0, 2.0, 0.5, 0.5, 1.0).e_n == pytest.approx(0.8, rel=1e-12)
+    import tomllib
+
+    for c in (cfg, parse_config({})):
+        assert parse_config(tomllib.loads(dump_config(c))) == c
+    assert "[contact]" not in dump_config(parse_config({}))
+    bad = [
+        ({"integrator": {"kind": "dem"}}, "needs a \\[contact\\] section"),
+        ({"contact": {"model": "dashpot", "k": 1.0}}, "used by integrator.kind = 'dem' only"),
+        ({"integrator": {"kind": "dem"}, "contact": {"model": "hertz", "young": 1e7}}, "needs young and poisson"),
+        ({"integrator": {"kind": "dem"}, "contact": {"model": "dashpot", "k": 1.0, "young": 3.0}}, "young not used by model 'dashpot'"),
+        ({"integrator": {"kind": "dem"}, "contact": {"model": "dashpot", "k": 1.0, "gamma": 1.0, "e_n": 0.5}}, "gamma or e_n, not both"),
+        ({"integrator": {"kind": "dem"}, "contact": {"model": "dashpot", "kk": 1.0}}, "contact.kk: unknown key \\(did you mean 'k'\\?\\)"),
+        ({"integrator": {"kind": "dem"}, "contact": {"model": "hertz", "young": 1e7, "poisson": 0.6}}, "contact.poisson"),
+        ({"integrator": {"kind": "dem", "dt": -1.0}, "contact": {"model": "dashpot", "k": 1.0}}, "integrator.dt"),
+        ({"integrator": {"kind": "dem"}, "contact": {"model": "dashpot", "k": 1.0}, "collision": {"rule": "inelastic", "e_n": 0.9}}, "dissipation from \\[contact\\]"),
+    ]
+    for data, words in bad:
+        with pytest.raises(ConfigError, match=words):
+            parse_config(data)
+
+
+def test_cli_runs_dem(tmp_path, dim):
+    import json
+
+    from typer.testing import CliRunner
+
+    from edmd.cli import app
+
+    cfg = tmp_path / "dem.toml"
+    cfg.write_text(DEM_CONFIG.format(dim=dim))
+    out = tmp_path / "run"
+    r = CliRunner().invoke(app, ["run", str(cfg), "--out", str(out), "--no-progress"])
+    assert r.exit_code == 0, r.output
+    table = edmd.read_thermo(out / "thermo.csv")
+    assert table["time"].tolist() == [0.0, 0.25, 0.5, 0.75, 1.0]
+    assert np.all(np.diff(table["temperature"]) <= 0) and table["temperature"][-1] < 0.99  # e_n = 0.8: the gas cools
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["neighbours"] == "dem" and summary["particle_steps_per_second"] > 0
+    last = edmd.read_state(out / "trajectory.gsd", check_overlaps=False)
+    assert last.time == 1.0 and last.dim == dim
+
+
 def test_examples_in_docstrings():
     assert doctest.testmod(edmd.dem, raise_on_error=False).failed == 0

@@ -1,6 +1,8 @@
 """edmd: event-driven molecular dynamics of hard and soft spheres and disks."""
 
 from .config import Config, ConfigError, load_config, parse_config
+from .contact import ContactError, Hertz, LinearDashpot
+from .dem import DEMSimulation
 from .engine import EngineOptions
 from .initial import lattice, maxwell_boltzmann, radii, random_packing
 from .simulation import Callback, Observer, Simulation, Totals
@@ -12,7 +14,11 @@ __all__ = [
     "Callback",
     "Config",
     "ConfigError",
+    "ContactError",
+    "DEMSimulation",
     "EngineOptions",
+    "Hertz",
+    "LinearDashpot",
     "Observer",
     "Simulation",
     "State",

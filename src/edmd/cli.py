@@ -28,6 +28,7 @@ def run(
     progress: bool = typer.Option(True, "--progress/--no-progress", help="Show a progress bar."),
 ):
     """Run a simulation and write its run directory."""
+    from .engine import EngineError
     from .runner import run_directory
 
     try:
@@ -35,10 +36,10 @@ def run(
         if config is None:
             console.print("[dim]no config given: running the built-in default (3D hard-sphere fluid, N = 4000, eta = 0.3)[/]")
         summary = run_directory(cfg, out, progress=progress and cfg.run.progress)
-    except (ConfigError, StateError, ValueError) as exc:
+    except (ConfigError, StateError, ValueError, EngineError) as exc:
         _fail(str(exc))
     table = Table(title=f"edmd run -> {out}", show_header=False)
-    for key in ("time", "collisions", "events", "temperature", "pressure_mean", "collisions_per_second", "neighbours"):
+    for key in ("time", "collisions", "events", "temperature", "pressure_mean", "collisions_per_second", "particle_steps_per_second", "neighbours"):
         if key in summary:
             v = summary[key]
             table.add_row(key, f"{v:.6g}" if isinstance(v, float) else str(v))

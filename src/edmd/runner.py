@@ -29,8 +29,18 @@ def build_state(cfg: Config) -> State:
 
 
 def build_simulation(cfg: Config, state: State | None = None) -> Simulation:
-    """A :class:`Simulation` for ``cfg`` (from ``state`` if given, else from ``[system]``)."""
+    """A :class:`Simulation` for ``cfg`` (from ``state`` if given, else from ``[system]``).
+
+    With ``[integrator] kind = "dem"`` it is a :class:`~edmd.dem.DEMSimulation` with the
+    ``[contact]`` law.
+    """
     state = build_state(cfg) if state is None else state
+    if cfg.integrator.kind == "dem":
+        from .dem import DEMSimulation
+
+        i = cfg.integrator
+        contact = cfg.contact.build(float(state.mass.mean()))
+        return DEMSimulation(state, contact, dt=i.dt, steps_per_contact=i.steps_per_contact, impact_speed=i.impact_speed, skin=i.skin)
     e = cfg.engine
     options = EngineOptions(neighbours=e.neighbours, skin=e.skin, resync_every=e.resync_every, events_per_bucket=e.events_per_bucket)
     return Simulation(state, e_n=cfg.collision.e_n, engine=options)
@@ -79,6 +89,9 @@ def summarize(sim: Simulation, thermo: Thermo | None) -> dict:
         "neighbours": sim.engine.mode,
         "machine": platform.platform(),
     }
+    if sim.engine.mode == "dem":
+        summary["dt"] = sim.dt
+        summary["particle_steps_per_second"] = st.n * sim.events / sim.wall_seconds if sim.wall_seconds > 0 else math.nan
     if thermo is not None and thermo.rows:
         rows = [r for r in thermo.rows if not math.isnan(r["pressure"])]
         if rows:
