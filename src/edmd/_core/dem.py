@@ -98,17 +98,12 @@ def _onset_impulse(model, f, f_el, xi, xi_dot, h):
 
 @hot
 def _forces(pos, vel, vp, acc, mass, radius, nbl, nbl_n, tch, geo, model, ca, cb, h):
-    """Accelerations at ``pos`` with velocities ``vp``; returns ``(U, virial, P_diss, onsets)``.
+    """Add the contact accelerations at ``pos`` with velocities ``vp`` to ``acc`` (holding gravity).
 
-    Contacts that began during the step of size ``h`` just taken get the onset correction
-    :func:`_onset_impulse`, applied to ``vel`` (``h = 0``: none).
+    Returns ``(U, virial, P_diss, onsets)``. Contacts that began during the step of size ``h``
+    just taken get the onset correction :func:`_onset_impulse`, applied to ``vel`` (``h = 0``: none).
     """
     n = pos.shape[0]
-    gx, gy, gz = geo[6], geo[7], geo[8]
-    for i in range(n):
-        acc[i, 0] = gx
-        acc[i, 1] = gy
-        acc[i, 2] = gz
     u = 0.0
     vir = 0.0
     pd = 0.0
@@ -160,11 +155,17 @@ def _forces(pos, vel, vp, acc, mass, radius, nbl, nbl_n, tch, geo, model, ca, cb
 
 
 @hot
-def _kinetic(vel, mass):
-    e = 0.0
+def _worst_drift(vel, acc, dsp, h):
+    """Largest squared displacement since the list build after a drift of ``h`` (``dsp`` not changed)."""
+    hh = 0.5 * h
+    worst = 0.0
     for i in range(vel.shape[0]):
-        e += mass[i] * (vel[i, 0] * vel[i, 0] + vel[i, 1] * vel[i, 1] + vel[i, 2] * vel[i, 2])
-    return 0.5 * e
+        d2 = 0.0
+        for a in range(3):
+            d = dsp[i, a] + h * (vel[i, a] + hh * acc[i, a])
+            d2 += d * d
+        worst = max(worst, d2)
+    return worst
 
 
 @jit
@@ -173,12 +174,15 @@ def dem_setup(pos, vel, acc, vp, dsp, mass, radius, nbl, nbl_n, tch, grid, geo, 
     if not build_list(pos, radius, geo, grid, skin, nbl, nbl_n, tch, cbuf):
         return False
     n = pos.shape[0]
+    ke = 0.0
     for i in range(n):
         for a in range(3):
             vp[i, a] = vel[i, a]
             dsp[i, a] = 0.0
+            acc[i, a] = geo[6 + a]
+            ke += mass[i] * vel[i, a] * vel[i, a]
     u, vir, pd, _on = _forces(pos, vel, vp, acc, mass, radius, nbl, nbl_n, tch, geo, model, ca, cb, 0.0)
-    sums[S_KE] = _kinetic(vel, mass)
+    sums[S_KE] = 0.5 * ke
     sums[S_U] = u
     sums[S_VIR] = vir
     sums[S_PDISS] = pd
@@ -192,34 +196,23 @@ def dem_steps(pos, vel, acc, vp, dsp, image, mass, radius, nbl, nbl_n, tch, grid
     Returns ``(status, steps_done)``: ``ST_EVENTS`` when done; on ``ST_LIST_FULL`` or
     ``ST_STEP_TOO_LARGE`` the state is that of the last complete step. Counters (the event
     engine's slots): ``C_EVENTS`` steps, ``C_COLL`` contact onsets, ``C_REBUILD`` list builds.
+    Three passes over the particles per step: kick-drift, forces, kick (fused with the kinetic
+    energy and the displacement check of the next drift).
     """
     n = pos.shape[0]
     lim = 0.25 * skin * skin  # (skin / 2)^2
     hh = 0.5 * h
+    worst = _worst_drift(vel, acc, dsp, h)
     for step in range(nsteps):
         # rebuild the list now if the coming drift could carry a particle past skin / 2
-        worst = 0.0
-        for i in range(n):
-            d2 = 0.0
-            for a in range(3):
-                d = dsp[i, a] + h * (vel[i, a] + hh * acc[i, a])
-                d2 += d * d
-            worst = max(worst, d2)
         if worst > lim:
             if not build_list(pos, radius, geo, grid, skin, nbl, nbl_n, tch, cbuf):
                 return ST_LIST_FULL, step
             cnt[C_REBUILD] += 1
-            worst = 0.0
-            for i in range(n):
-                d2 = 0.0
-                for a in range(3):
-                    dsp[i, a] = 0.0
-                    d = h * (vel[i, a] + hh * acc[i, a])
-                    d2 += d * d
-                worst = max(worst, d2)
-            if worst > lim:
+            dsp[:] = 0.0
+            if _worst_drift(vel, acc, dsp, h) > lim:
                 return ST_STEP_TOO_LARGE, step
-        # kick, drift (wrapping into the box), extrapolated velocity for the force
+        # kick, drift (wrapping into the box), extrapolated velocity for the force, gravity
         for i in range(n):
             for a in range(3):
                 v = vel[i, a] + hh * acc[i, a]
@@ -236,11 +229,21 @@ def dem_steps(pos, vel, acc, vp, dsp, image, mass, radius, nbl, nbl_n, tch, grid
                     image[i, a] -= 1
                 pos[i, a] = x
                 vp[i, a] = v + hh * acc[i, a]
+                acc[i, a] = geo[6 + a]
         u, vir, pd, onsets = _forces(pos, vel, vp, acc, mass, radius, nbl, nbl_n, tch, geo, model, ca, cb, h)
+        # kick, kinetic energy, and the displacement the next drift would reach
+        ke = 0.0
+        worst = 0.0
         for i in range(n):
+            d2 = 0.0
             for a in range(3):
-                vel[i, a] += hh * acc[i, a]
-        ke = _kinetic(vel, mass)
+                v = vel[i, a] + hh * acc[i, a]
+                vel[i, a] = v
+                ke += mass[i] * v * v
+                d = dsp[i, a] + h * (v + hh * acc[i, a])
+                d2 += d * d
+            worst = max(worst, d2)
+        ke *= 0.5
         sums[S_KE_INT] += hh * (sums[S_KE] + ke)
         sums[S_VIR_INT] += hh * (sums[S_VIR] + vir)
         sums[S_DISS] += hh * (sums[S_PDISS] + pd)
