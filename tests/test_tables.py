@@ -132,7 +132,7 @@ def test_compiled_entry_point_uses_table_or_solver():
     m1, m2, R1, R2 = 1.0, 2.0, 0.5, 0.7
     mu, reff, sigma = m1 * m2 / 3, R1 * R2 / 1.2, 1.2
     flat, tg, ctab, cgeo = default_table("hertz").core()
-    W, K = np.zeros((3, 10)), np.zeros((13, 3))
+    W, K = np.zeros(lk.SCRATCH_SHAPE), np.zeros((13, 3))
     for vn, vt, inside in [(1.0, 0.5, True), (0.1, 2.0, False)]:  # b = 0.9988 > 0.99: outside
         got = lk.matrix_of_restitution(MODEL_HERTZ, a, bb, mu, reff, sigma, vn, vt, True, flat, tg, ctab, cgeo, 1e-12, W, K)
         ref = collide(contact, m1, m2, R1, R2, vn, vt)

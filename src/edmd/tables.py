@@ -231,7 +231,7 @@ class RestitutionTable:
         self.central, self.central_geometry = central
         self.meta = dict(meta or {})
         self._flat = self.values.reshape(-1)
-        self._W = np.zeros((3, _lk.MAX_DEGREE + 1))
+        self._W = np.zeros(_lk.SCRATCH_SHAPE)
 
     # ------------------------------------------------------------------ compiled access
     def core(self):

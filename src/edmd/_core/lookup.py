@@ -35,6 +35,8 @@ AX_LOGSHIFT = 2
 N_OUT = 3
 #: largest interpolation degree
 MAX_DEGREE = 9
+#: shape of the scratch array ``W`` of the lookups (the stencil weights of the three axes)
+SCRATCH_SHAPE = (3, MAX_DEGREE + 1)
 
 
 def _inverse_denominators():
@@ -132,12 +134,40 @@ def _stencil(kind, a, u, x0, h, n, p, W, row):
     return k
 
 
+@hot
+def _row18(a, w, v, q):
+    """``a + w * v[q:q+18]`` for an 18-tuple ``a`` (one stencil row of a degree-5 table, in registers)."""
+    return (
+        a[0] + w * v[q + 0],
+        a[1] + w * v[q + 1],
+        a[2] + w * v[q + 2],
+        a[3] + w * v[q + 3],
+        a[4] + w * v[q + 4],
+        a[5] + w * v[q + 5],
+        a[6] + w * v[q + 6],
+        a[7] + w * v[q + 7],
+        a[8] + w * v[q + 8],
+        a[9] + w * v[q + 9],
+        a[10] + w * v[q + 10],
+        a[11] + w * v[q + 11],
+        a[12] + w * v[q + 12],
+        a[13] + w * v[q + 13],
+        a[14] + w * v[q + 14],
+        a[15] + w * v[q + 15],
+        a[16] + w * v[q + 16],
+        a[17] + w * v[q + 17],
+    )
+
+
 @jit
 def lookup_normalised(values, tg, u1, lam_v, b, W):
     """Interpolated normalised outputs at ``(u1, lam_v, b)``; NaNs outside the table.
 
     ``values``: the node values flattened from C-order ``(n0, n1, n2, 3)``; ``tg``: table
-    geometry; ``W``: scratch ``(3, p + 1)`` float64.
+    geometry; ``W``: scratch ``(3, p + 1)`` float64 (:data:`SCRATCH_SHAPE`). The sum is
+    contracted over the first two axes (each of the ``(p+1)^2`` stencil rows is ``3 (p + 1)``
+    contiguous numbers), then over the last. Degree 5 (the default tables) keeps the 18 partial
+    sums in registers; other degrees accumulate in memory.
     """
     p = int(tg[15])
     n1 = int(tg[9])
@@ -150,23 +180,29 @@ def lookup_normalised(values, tg, u1, lam_v, b, W):
     a0 = 0.0
     a1 = 0.0
     a2 = 0.0
+    if p == 5:
+        acc = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        for i in range(6):
+            wi = W[0, i]
+            for j in range(6):
+                acc = _row18(acc, wi * W[1, j], values, (((k0 + i) * n1 + k1 + j) * n2 + k2) * N_OUT)
+        for k in range(6):
+            w = W[2, k]
+            a0 += w * acc[N_OUT * k]
+            a1 += w * acc[N_OUT * k + 1]
+            a2 += w * acc[N_OUT * k + 2]
+        return a0, a1, a2
     for i in range(p + 1):
         wi = W[0, i]
         for j in range(p + 1):
             wij = wi * W[1, j]
             base = (((k0 + i) * n1 + k1 + j) * n2 + k2) * N_OUT
-            s0 = 0.0
-            s1 = 0.0
-            s2 = 0.0
             for k in range(p + 1):
-                w = W[2, k]
+                w = wij * W[2, k]
                 q = base + N_OUT * k
-                s0 += w * values[q]
-                s1 += w * values[q + 1]
-                s2 += w * values[q + 2]
-            a0 += wij * s0
-            a1 += wij * s1
-            a2 += wij * s2
+                a0 += w * values[q]
+                a1 += w * values[q + 1]
+                a2 += w * values[q + 2]
     return a0, a1, a2
 
 
