@@ -23,14 +23,13 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import statistics
 import time
 from pathlib import Path
 
 import numpy as np
-from bench_hard_spheres import machine_info
+from bench_hard_spheres import write_results
 from numba import njit
 
 import edmd
@@ -165,10 +164,7 @@ def main(argv=None):
                 r = bench_dem(n, eta, model, args.dem_steps, args.repeats)
                 results["dem"].append(r)
                 print(f"DEM {model} N={n} eta={eta}: {r['particle_steps_per_s'] / 1e6:.1f} M particle-steps/s", flush=True)
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps({"machine": machine_info(), "args": vars(args), "results": results}, indent=2))
-    print(f"wrote {out}")
+    write_results(args.out, args, results)
 
 
 if __name__ == "__main__":
