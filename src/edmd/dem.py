@@ -252,6 +252,14 @@ class DEMSimulation(Simulation):
             largest particle speed, plus the free-fall speed across the box with gravity).
         gravity: uniform acceleration (``d`` numbers) or ``None``.
         skin: neighbour-list skin in mean diameters.
+
+    Example:
+        >>> import edmd
+        >>> s = edmd.maxwell_boltzmann(edmd.lattice(64, 0.2, dim=2), kT=1.0, seed=1)
+        >>> sim = DEMSimulation(s, edmd.Hertz(young=1e5, poisson=0.3, A=1e-4), steps_per_contact=20)
+        >>> sim.run(until_time=0.5)
+        >>> sim.time, sim.state.dim, round(sim.dt / sim.contact_time, 6)
+        (0.5, 2, 0.05)
     """
 
     def __init__(

@@ -342,6 +342,11 @@ def build_table(
         executor: any :class:`concurrent.futures.Executor` (e.g. a Dask client's executor);
             overrides ``workers``.
         progress: show a rich progress bar.
+
+    Example:
+        >>> tab = build_table("dashpot", "damping=0:0.2,softness=0:0.01,b=0:0.5", shape=(7, 7, 7), workers=1)
+        >>> tab.shape, round(tab.lookup(0.1, 0.005, 0.25).eps_hat, 4)
+        ((7, 7, 7), 0.7441)
     """
     name = _check_model(model)
     code = model_code(name)
@@ -407,6 +412,10 @@ def check_table(table: RestitutionTable, points: int = 10_000, seed: int = 0, sa
 
     Returns:
         ``{"Phi": e, "1-D": e, "tau_c": e, "eps_hat": e, "max": e, "worst_point": (u1, lam_v, b), "points": n}``.
+
+    Example:
+        >>> check_table(default_table("hertz"), points=200)["max"] < 1e-6
+        True
     """
     if sampling not in ("log", "linear"):
         raise TableError(f"sampling must be 'log' or 'linear', got {sampling!r}")
@@ -441,7 +450,12 @@ def check_table(table: RestitutionTable, points: int = 10_000, seed: int = 0, sa
 
 @functools.lru_cache(maxsize=None)
 def default_table(model) -> RestitutionTable:
-    """The table shipped with edmd for ``model`` (``"dashpot"`` or ``"hertz"``), box :data:`DEFAULT_BOXES`."""
+    """The table shipped with edmd for ``model`` (``"dashpot"`` or ``"hertz"``), box :data:`DEFAULT_BOXES`.
+
+    Example:
+        >>> default_table("hertz").shape
+        (29, 53, 65)
+    """
     name = _check_model(model)
     path = resources.files("edmd") / "data" / f"restitution_{name}.npz"
     with resources.as_file(path) as p:

@@ -47,6 +47,11 @@ class Restitution:
         eps_hat: :math:`\hat\varepsilon = \dot r(t_c)/v_n`.
         X_c: scaled residual overlap :math:`\xi_c/\ell_s` (:math:`1 - D = \Lambda X_c` without cancellation).
         t_s, l_s: time and length scales (1 for a purely scaled solve).
+
+    Example:
+        >>> r = solve("dashpot", 0.0, 0.0)
+        >>> [round(x, 9) for x in r.as_tuple()], r.t_c == r.tau_c
+        ([0.0, 1.0, 3.141592654, 1.0], True)
     """
 
     Phi: float
@@ -73,7 +78,12 @@ class Restitution:
 
 
 def model_code(model) -> int:
-    """Compiled-core code of a model given as a :class:`~edmd.contact.ContactModel`, its class or its name."""
+    """Compiled-core code of a model given as a :class:`~edmd.contact.ContactModel`, its class or its name.
+
+    Example:
+        >>> model_code("dashpot"), model_code("hertz")
+        (0, 1)
+    """
     if isinstance(model, ContactModel) or (isinstance(model, type) and issubclass(model, ContactModel)):
         return model.code
     if isinstance(model, str) and model in MODELS:
