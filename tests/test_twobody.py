@@ -186,6 +186,20 @@ def test_against_scipy_dop853(model, rng):
         assert lam * r.X_c == pytest.approx(one_minus_d, rel=1e-9, abs=1e-300)
 
 
+@pytest.mark.parametrize("model", ["dashpot", "hertz"])
+def test_grazing_contacts(model):
+    # b -> 1: the contact (duration ~ 2 / (Lambda tan^2 alpha)) can fit in the first trial step;
+    # elastic contacts must still end at X = 0 with eps_hat = D = 1, and Phi -> 2 / tan(alpha)
+    for ta in [30.0, 1e4, 1e6]:
+        r = solve(model, 0.0, 0.1, ta)
+        assert r.eps_hat == pytest.approx(1.0, abs=1e-10) and r.D == pytest.approx(1.0, abs=1e-14)
+        if ta > 1e3:
+            assert r.Phi == pytest.approx(2.0 / ta, rel=1e-6)
+    phi, one_minus_d, tau, eps = scipy_reference(model, 0.0, 0.1, 30.0)
+    r = solve(model, 0.0, 0.1, 30.0)
+    assert (r.Phi, r.tau_c, r.eps_hat) == pytest.approx((phi, tau, eps), rel=1e-10)
+
+
 def test_bad_solver_input():
     with pytest.raises(ContactError, match="softness must be below 1"):
         solve("dashpot", 0.1, 1.5)

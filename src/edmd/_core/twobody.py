@@ -136,7 +136,9 @@ def solve_scaled(model, c, lam, tan_a, rtol, K):
             h *= max(_MIN_FACTOR, _SAFETY * err ** -0.125)
             continue
         g1 = x1 + c * v1
-        if g1 <= 0.0 and (g > 0.0 or t > 0.0):
+        # g starts at c > 0; elastic (c = 0): at 0 with g' = 1 > 0, so g1 <= 0 after the first step
+        # means the whole (grazing) contact fits in it
+        if g1 <= 0.0 and (g > 0.0 or t > 0.0 or c == 0.0):
             return _terminate(model, c, lam, tan_a, cen, t, x, v, p, g, h, g1, K, rtol, atol)
         t += h
         x, v, p, g = x1, v1, p1, g1
@@ -152,8 +154,8 @@ def _terminate(model, c, lam, tan_a, cen, t, x, v, p, g0, h, g1, K, rtol, atol):
 
     Newton on the step size ``s``, safeguarded by the bracket ``[lo, hi]``; each iterate is a
     full DOP853 step from ``t`` and ``g'(s) = X' + cX''`` comes from its first-same-as-last
-    derivative. Once the Newton correction is below ``1e-9`` the end state is moved onto the
-    root by a second-order Taylor step (error below ``1e-17``).
+    derivative. Once the Newton correction is below ``1e-9`` of the elapsed time the end state is
+    moved onto the root by a second-order Taylor step (relative error ~1e-18).
     """
     lo, hi = 0.0, h
     s = h * g0 / (g0 - g1)
@@ -170,7 +172,7 @@ def _terminate(model, c, lam, tan_a, cen, t, x, v, p, g0, h, g1, K, rtol, atol):
         dx, dv, dp = K[12, 0], K[12, 1], K[12, 2]
         dg = dx + c * dv
         step = -gs / dg if dg < 0.0 else 0.5 * (lo + hi) - s
-        if abs(step) <= 1e-9 or hi - lo <= 1e-15 * (t + s):
+        if abs(step) <= 1e-9 * (t + s) or hi - lo <= 1e-15 * (t + s):
             if dg < 0.0:
                 x1 += (dx + 0.5 * dv * step) * step
                 v1 += dv * step
