@@ -10,17 +10,17 @@ import itertools
 import numpy as np
 
 
-def _pair_times(pos, vel, radius, box):
-    """Earliest contact time of every pair over all 3^d image shifts; also the best shift."""
+def _pair_times(pos, vel, radius, box, periodic):
+    """Earliest contact time of every pair over all 3^d image shifts (periodic axes); also the best shift."""
     n, d = pos.shape
     dr0 = pos[:, None, :] - pos[None, :, :]
-    dr0 -= box * np.round(dr0 / box)
+    dr0 -= np.where(periodic, box * np.round(dr0 / box), 0.0)
     dv = vel[:, None, :] - vel[None, :, :]
     sig = radius[:, None] + radius[None, :]
     best = np.full((n, n), np.inf)
     best_shift = np.zeros((n, n, d))
     a = np.einsum("ijk,ijk->ij", dv, dv)
-    for s in itertools.product((-1, 0, 1), repeat=d):
+    for s in itertools.product(*[(-1, 0, 1) if p else (0,) for p in periodic]):
         shift = np.asarray(s, float) * box
         dr = dr0 + shift
         b = np.einsum("ijk,ijk->ij", dr, dv)
@@ -36,29 +36,71 @@ def _pair_times(pos, vel, radius, box):
     return best, dr0 + best_shift
 
 
-def run_reference(pos, vel, radius, mass, box, t_end, e_n=1.0):
-    """Elastic/inelastic smooth hard spheres in a periodic box until ``t_end``.
+def _wall_times(pos, vel, radius, box, gravity, periodic):
+    """Earliest wall contact per particle: (time, (axis, face)), textbook quadratic formula, vectorised."""
+    n, d = pos.shape
+    best = np.full(n, np.inf)
+    which = np.full((n, 2), -1)
+    eps = 1e-12 * box.max()
+    for k in range(d):
+        if periodic[k]:
+            continue
+        for face, sign in ((0, 1.0), (1, -1.0)):
+            # gap h(t) = h0 + u t + a t^2 / 2 to the plane x = -L/2 (face 0) or +L/2 (face 1)
+            h0 = sign * pos[:, k] + 0.5 * box[k] - radius
+            u, a = sign * vel[:, k], sign * gravity[k]
+            with np.errstate(invalid="ignore", divide="ignore"):
+                if a != 0:
+                    root = np.sqrt(u * u - 2 * a * h0)
+                    cands = np.stack([(-u - root) / a, (-u + root) / a])
+                else:
+                    cands = np.stack([-h0 / u, np.full(n, np.inf)])
+            ok = np.isfinite(cands) & (cands > eps) & (u + a * cands < 0)
+            t = np.where(ok, cands, np.inf).min(axis=0)
+            better = t < best
+            best[better] = t[better]
+            which[better] = (k, face)
+    return best, which
 
-    Returns ``(pos, vel, log)`` with positions wrapped into ``[-L/2, L/2)`` and
-    ``log = [(t, i, j), ...]`` (``i < j``) for every collision.
+
+def run_reference(pos, vel, radius, mass, box, t_end, e_n=1.0, gravity=None, periodic=None, e_wall=1.0):
+    """Smooth hard spheres (constant e_n) in a box with periodic axes and smooth walls, in gravity.
+
+    Returns ``(pos, vel, log)`` with positions wrapped on periodic axes and
+    ``log = [(t, i, j), ...]``: ``i < j`` for collisions, ``j = -1 - (2 * axis + face)`` for walls.
     """
     pos = np.array(pos, float)
     vel = np.array(vel, float)
     radius = np.asarray(radius, float)
     mass = np.asarray(mass, float)
     box = np.asarray(box, float)
+    d = pos.shape[1]
+    gravity = np.zeros(d) if gravity is None else np.asarray(gravity, float)
+    periodic = np.ones(d, bool) if periodic is None else np.asarray(periodic, bool)
     t = 0.0
     log = []
     while True:
-        times, dr = _pair_times(pos, vel, radius, box)
+        times, dr = _pair_times(pos, vel, radius, box, periodic)
         k = int(np.argmin(times))
         i, j = divmod(k, len(pos))
         dt = times[i, j]
+        tw, which = _wall_times(pos, vel, radius, box, gravity, periodic)
+        w = int(np.argmin(tw))
+        wall_first = tw[w] < dt
+        dt = min(dt, tw[w])
         if t + dt >= t_end:
-            pos += vel * (t_end - t)
+            dt = t_end - t
+            pos += vel * dt + 0.5 * gravity * dt * dt
+            vel += gravity * dt
             break
-        pos += vel * dt
+        pos += vel * dt + 0.5 * gravity * dt * dt
+        vel += gravity * dt
         t += dt
+        if wall_first:
+            axis, face = which[w]
+            vel[w, axis] *= -e_wall
+            log.append((t, w, -1 - (2 * axis + face)))
+            continue
         rij = dr[i, j] + (vel[i] - vel[j]) * dt
         n = rij / np.linalg.norm(rij)
         gn = (vel[i] - vel[j]) @ n
@@ -67,5 +109,5 @@ def run_reference(pos, vel, radius, mass, box, t_end, e_n=1.0):
         vel[i] += jimp / mass[i]
         vel[j] -= jimp / mass[j]
         log.append((t, min(i, j), max(i, j)))
-    pos = (pos + 0.5 * box) % box - 0.5 * box
+    pos = np.where(periodic, (pos + 0.5 * box) % box - 0.5 * box, pos)
     return pos, vel, log

@@ -5,8 +5,9 @@ import json
 import numpy as np
 from typer.testing import CliRunner
 
-from edmd import read_state, read_thermo
+from edmd import Simulation, Trajectory, lattice, maxwell_boltzmann, read_state, read_thermo
 from edmd.cli import app
+from edmd.config import default_job
 
 runner = CliRunner()
 
@@ -61,3 +62,41 @@ def test_impossible_packing_fraction_is_explained(tmp_path):
     cfg.write_text("[system]\nn = 100\npacking_fraction = 0.8\n")
     r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "x")])
     assert r.exit_code == 2 and "cannot be built" in r.output
+
+
+def test_run_from_a_gsd_frame(tmp_path, dim):
+    sim = Simulation(maxwell_boltzmann(lattice(200, 0.3, dim=dim), 1.0, seed=4))
+    sim.add(Trajectory(tmp_path / "src.gsd", interval=0.5))
+    sim.run(until_time=1.0)
+    sim.close()
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(SMALL.format(dim=dim).replace("n = 300", "n = 5") + "[output]\nplots = false\n")
+    out = tmp_path / "run"
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(out), "--from", str(tmp_path / "src.gsd"), "--frame", "1"])
+    assert r.exit_code == 0, r.output
+    assert "[system] settings are ignored" in " ".join(r.output.split())
+    start = read_state(out / "trajectory.gsd", 0)
+    source = read_state(tmp_path / "src.gsd", 1)
+    assert start.time == 0.5 and start.n == 200
+    assert np.array_equal(start.velocity, source.velocity)
+    assert read_thermo(out / "thermo.csv")["time"].tolist() == [0.5, 1.0, 1.5, 2.0]
+    assert f'from_file = "{(tmp_path / "src.gsd").resolve()}"' in (out / "config.toml").read_text()
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(out), "--from", str(tmp_path / "nope.gsd")])
+    assert r.exit_code == 2 and "no file" in r.output
+
+
+def test_export_command(tmp_path):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(SMALL.format(dim=2) + "[output]\nplots = false\n")
+    runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "run")])
+    r = runner.invoke(app, ["export", str(tmp_path / "run"), str(tmp_path / "f.xyz"), "--frame", "2"])
+    assert r.exit_code == 0, r.output
+    assert "t = 1" in r.output and (tmp_path / "f.xyz").read_text().startswith("300\n")
+    r = runner.invoke(app, ["export", str(tmp_path / "run"), str(tmp_path / "f.txt")])
+    assert r.exit_code == 2 and "use a .xyz" in r.output and "Traceback" not in r.output
+
+
+def test_default_job_is_a_cooling_granular_gas():
+    cfg = default_job()
+    assert cfg.collision.rule == "inelastic" and cfg.collision.e_n < 1
+    assert cfg.output.checkpoint and cfg.output.plots and cfg.run.progress

@@ -90,7 +90,7 @@ def test_elastic_energy_conservation_is_second_order(contact, dim):
             state = edmd.maxwell_boltzmann(edmd.lattice(500, 0.25, dim=dim), kT=1.0, seed=seed)
             sim = DEMSimulation(state, contact, steps_per_contact=n)
             energy = []
-            sim.add(edmd.Callback(lambda s, _tot, sim=sim: energy.append(s.kinetic_energy() + sim.potential_energy), interval=0.02))
+            sim.add(edmd.Callback(lambda s, _tot, sim=sim: energy.append(s.kinetic_energy() + sim.elastic_energy), interval=0.02))
             sim.run(until_time=2.0)
             e = np.array(energy)
             dev.append(np.mean((e / e[0] - 1) ** 2))
@@ -176,10 +176,12 @@ def test_conservation_and_invariants(dim):
     assert np.array_equal(s.angular_velocity, state.angular_velocity)  # frictionless: spins untouched
     # energy balance: E_kin + E_el + dissipated = E0 (to the integrator's accuracy)
     e0 = state.kinetic_energy()
-    total = s.kinetic_energy() + sim.potential_energy + sim.totals().dissipated
+    total = s.kinetic_energy() + sim.elastic_energy + sim.totals().dissipated
     assert total == pytest.approx(e0, rel=2e-3)
     assert sim.totals().dissipated > 0.05 * e0
     rows = th.table()
+    # thermo's energy balance includes the elastic energy of the contacts
+    np.testing.assert_allclose(rows["energy_balance"], e0 + state.rotational_energy(), rtol=2e-3)
     assert np.all(np.diff(rows["temperature"]) < 0)
     assert np.all(rows["pressure"][1:] > 0) and np.all(rows["collision_rate"][1:] > 0)
 
@@ -245,6 +247,10 @@ def test_bad_input():
         DEMSimulation(still, Hertz(young=1e6, poisson=0.3))
     with pytest.raises(EngineError, match="time step .* too large"):
         DEMSimulation(state, LinearDashpot(k=1e4), dt=0.5).run(until_time=5.0)
+    from edmd.checkpoint import Checkpoint
+
+    with pytest.raises(TypeError, match="checkpoints .* not available for the DEM"):
+        DEMSimulation(state, LinearDashpot(k=1e4)).add(Checkpoint("c.gsd", interval=1.0))
 
 
 DEM_CONFIG = """
@@ -288,6 +294,7 @@ def test_config_sections():
         ({"integrator": {"kind": "dem"}, "contact": {"model": "hertz", "young": 1e7, "poisson": 0.6}}, "contact.poisson"),
         ({"integrator": {"kind": "dem", "dt": -1.0}, "contact": {"model": "dashpot", "k": 1.0}}, "integrator.dt"),
         ({"integrator": {"kind": "dem"}, "contact": {"model": "dashpot", "k": 1.0}, "collision": {"rule": "inelastic", "e_n": 0.9}}, "dissipation from \\[contact\\]"),
+        ({"integrator": {"kind": "dem"}, "contact": {"model": "dashpot", "k": 1.0}, "walls": {"axes": ["x"]}}, "periodic box"),
     ]
     for data, words in bad:
         with pytest.raises(ConfigError, match=words):

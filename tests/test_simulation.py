@@ -77,7 +77,7 @@ def test_state_assignment_restarts_from_it(dim):
 
 
 def test_bad_parameters(dim):
-    with pytest.raises(ValueError, match="e_n must be in"):
+    with pytest.raises(ValueError, match="e_n must be a number in"):
         _sim(dim, e_n=1.5)
     with pytest.raises(ValueError, match="neighbours must be"):
         _sim(dim, engine={"neighbours": "octree"})

@@ -1,5 +1,6 @@
 """edmd: event-driven molecular dynamics of hard and soft spheres and disks."""
 
+from .checkpoint import Checkpoint, CheckpointError, read_checkpoint
 from .config import Config, ConfigError, load_config, parse_config
 from .contact import ContactError, Hertz, LinearDashpot
 from .dem import DEMSimulation
@@ -7,11 +8,14 @@ from .engine import EngineOptions
 from .initial import lattice, maxwell_boltzmann, radii, random_packing
 from .simulation import Callback, Observer, Simulation, Totals
 from .state import State, StateError
+from .sweeps import SweepError, SweepResult, SweepSpec, sweep, sweep_summary
 from .thermo import Thermo, read_thermo
 from .trajectory import Trajectory, read_state, write_state
 
 __all__ = [
     "Callback",
+    "Checkpoint",
+    "CheckpointError",
     "Config",
     "ConfigError",
     "ContactError",
@@ -23,6 +27,9 @@ __all__ = [
     "Simulation",
     "State",
     "StateError",
+    "SweepError",
+    "SweepResult",
+    "SweepSpec",
     "Thermo",
     "Totals",
     "Trajectory",
@@ -32,8 +39,11 @@ __all__ = [
     "parse_config",
     "radii",
     "random_packing",
+    "read_checkpoint",
     "read_state",
     "read_thermo",
+    "sweep",
+    "sweep_summary",
     "write_state",
 ]
 __version__ = "0.1.0"

@@ -1,14 +1,17 @@
-"""Command line: ``edmd run``, ``edmd init``, ``edmd tables build|check|info``."""
+"""Command line: ``edmd run``, ``edmd init``, ``edmd sweep``, ``edmd export``, ``edmd plot``, ``edmd tables``."""
 
 from __future__ import annotations
 
+import collections
+import contextlib
 from pathlib import Path
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
-from .config import EXAMPLE, Config, ConfigError, load_config
+from .config import EXAMPLE, ConfigError, default_job, load_config
 from .state import StateError
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, help="Event-driven molecular dynamics of hard and soft spheres and disks.")
@@ -17,33 +20,100 @@ err_console = Console(stderr=True)
 
 
 def _fail(msg: str):
-    err_console.print(f"[bold red]error:[/] {msg}")
+    err_console.print(f"[bold red]error:[/] {escape(msg)}")
     raise typer.Exit(code=2)
+
+
+def _load_job(config: Path | None, start_from: Path | None, frame: int):
+    """The configuration of a new run: a file or the built-in showcase, optionally started from a GSD frame."""
+    if config is not None:
+        cfg = load_config(config)
+    else:
+        cfg = default_job()
+        s, c = cfg.system, cfg.collision
+        console.print(
+            f"[dim]no config given: running the built-in showcase, a cooling granular gas "
+            f"({s.dim}D, N = {s.n}, eta = {s.packing_fraction}, e_n = {c.e_n}, until t = {cfg.run.until_time:g})[/]"
+        )
+    if start_from is not None:
+        if not start_from.is_file():
+            raise StateError(f"--from: no file {start_from}")
+        cfg.system.from_file = str(start_from.resolve())
+        cfg.system.from_frame = frame
+        console.print(f"[dim]initial state: frame {frame} of {start_from} (\\[system] settings are ignored)[/]")
+    return cfg
 
 
 @app.command()
 def run(
-    config: Path = typer.Argument(None, help="TOML configuration; without it a built-in default runs."),
-    out: Path = typer.Option(Path("edmd-run"), "--out", "-o", help="Run directory for config, thermo, trajectory."),
+    config: Path = typer.Argument(None, help="TOML configuration; without it the built-in showcase runs."),
+    out: Path = typer.Option(Path("edmd-run"), "--out", "-o", help="Run directory for config, thermo, trajectory, checkpoint, plots."),
+    start_from: Path = typer.Option(None, "--from", help="Start from a frame of this GSD file ([system] is then ignored)."),
+    frame: int = typer.Option(-1, "--frame", help="Frame of --from (negative counts from the end)."),
+    restart: Path = typer.Option(None, "--restart", help="Continue the run in this directory from its checkpoint."),
+    until_time: float = typer.Option(None, "--until-time", help="With --restart: new end time (simulation time)."),
     progress: bool = typer.Option(True, "--progress/--no-progress", help="Show a progress bar."),
 ):
-    """Run a simulation and write its run directory."""
+    """Run a simulation and write its run directory (or continue one with --restart)."""
+    from .checkpoint import CheckpointError
     from .engine import EngineError
-    from .runner import run_directory
+    from .runner import restart_directory, run_directory
 
     try:
-        cfg = load_config(config) if config is not None else Config()
-        if config is None:
-            console.print("[dim]no config given: running the built-in default (3D hard-sphere fluid, N = 4000, eta = 0.3)[/]")
-        summary = run_directory(cfg, out, progress=progress and cfg.run.progress)
-    except (ConfigError, StateError, ValueError, EngineError) as exc:
+        if restart is not None:
+            if config is not None or start_from is not None:
+                raise ConfigError("--restart continues a run directory with its own configuration: give no CONFIG or --from")
+            out = restart
+            summary = restart_directory(restart, until_time=until_time, progress=None if progress else False)
+        else:
+            if until_time is not None:
+                raise ConfigError("--until-time goes with --restart; set [run] until_time in the configuration")
+            cfg = _load_job(config, start_from, frame)
+            summary = run_directory(cfg, out, progress=progress and cfg.run.progress)
+    except (ConfigError, StateError, CheckpointError, ValueError, OSError, EngineError) as exc:
         _fail(str(exc))
+    except KeyboardInterrupt:
+        err_console.print(f"[bold yellow]interrupted:[/] continue with `edmd run --restart {out}`")
+        raise typer.Exit(code=130) from None
     table = Table(title=f"edmd run -> {out}", show_header=False)
-    for key in ("time", "collisions", "events", "temperature", "pressure_mean", "collisions_per_second", "particle_steps_per_second", "neighbours"):
+    keys = ("time", "collisions", "events", "temperature", "pressure_mean", "collisions_per_second", "particle_steps_per_second", "neighbours", "checkpoint_time")
+    for key in keys:
         if key in summary:
             v = summary[key]
             table.add_row(key, f"{v:.6g}" if isinstance(v, float) else str(v))
     console.print(table)
+
+
+@app.command()
+def export(
+    source: Path = typer.Argument(..., help="A GSD file or a run directory (its trajectory.gsd)."),
+    output: Path = typer.Argument(..., help="Output file: .xyz (extended XYZ: ASE, OVITO) or .csv."),
+    frame: int = typer.Option(-1, "--frame", help="Frame to export (negative counts from the end)."),
+):
+    """Export one frame as extended XYZ or CSV."""
+    from .export import export_frame
+
+    try:
+        state = export_frame(source, output, frame)
+    except (StateError, ValueError, OSError) as exc:
+        _fail(str(exc))
+    console.print(f"wrote {output} (t = {state.time:g}, N = {state.n})")
+
+
+@app.command()
+def plot(
+    run_dir: Path = typer.Argument(Path("edmd-run"), help="A run directory written by `edmd run`."),
+    color: str = typer.Option("speed", "--color", help="Snapshot colouring: 'speed' or 'spin'."),
+):
+    """Write the standard figures (PNG) of a run directory into it."""
+    from .plots import plot_run
+
+    try:
+        files = plot_run(run_dir, color_by=color)
+    except (StateError, ValueError, OSError) as exc:
+        _fail(str(exc))
+    for f in files:
+        console.print(f"wrote {f}")
 
 
 @app.command()
@@ -56,6 +126,51 @@ def init(
         _fail(f"{path} exists; use --force to overwrite")
     path.write_text(EXAMPLE)
     console.print(f"wrote {path}")
+
+
+@app.command()
+def sweep(
+    sweep_file: Path = typer.Argument(None, help="Sweep file (TOML): a base configuration and a \\[grid] and/or \\[\\[points]] of overrides."),
+    out: Path = typer.Option(None, "--out", "-o", help="Sweep directory (default: <sweep file name>-sweep)."),
+    workers: int = typer.Option(None, "--workers", "-w", min=1, help="Local worker processes, or the --dask cluster size (default: one per CPU)."),
+    scheduler: str = typer.Option(None, "--scheduler", help="Run on the dask.distributed cluster of this scheduler (tcp://host:8786)."),
+    dask: bool = typer.Option(False, "--dask", help="Run on a local dask.distributed cluster (pip install 'edmd\\[dask]')."),
+    summary: Path = typer.Option(None, "--summary", help="Only rebuild the results table of this sweep directory."),
+    progress: bool = typer.Option(True, "--progress/--no-progress", help="Show a progress bar counting points."),
+):
+    """Run a parameter sweep (resumable: finished points are skipped), or rebuild its results table."""
+    from .sweeps import SweepError, dask_executor, sweep_summary
+    from .sweeps import sweep as run_sweep
+
+    if (sweep_file is None) == (summary is None):
+        _fail("give a sweep file, or --summary DIR to rebuild the results table of a sweep directory")
+    try:
+        if summary is not None:
+            _report_summary(summary, sweep_summary(summary))
+            return
+        out = out if out is not None else Path(f"{sweep_file.stem}-sweep")
+        with contextlib.ExitStack() as stack:
+            executor = stack.enter_context(dask_executor(scheduler, workers)) if (dask or scheduler) else None
+            result = run_sweep(sweep_file, out, executor=executor, workers=None if executor else workers, progress=progress)
+    except (SweepError, ConfigError) as exc:
+        _fail(str(exc))
+    _report_summary(result.directory, result.table, f"ran {result.ran}, skipped {result.skipped} finished before; ")
+    if result.failed:
+        raise typer.Exit(code=1)
+
+
+def _report_summary(directory: Path, table, head: str = ""):
+    counts = collections.Counter(row["status"] for row in table.rows)
+    console.print(f"sweep {escape(str(directory))}: {len(table.rows)} points; {head}" + ", ".join(f"{n} {s}" for s, n in sorted(counts.items())), soft_wrap=True)
+    failed = [row for row in table.rows if row["status"] == "failed"]
+    if failed:
+        listing = Table("point", "error", title="failed points (traceback in points/<point>/error.txt)")
+        for row in failed[:10]:
+            listing.add_row(row["point"], escape(row["error"]))
+        if len(failed) > 10:
+            listing.add_row("...", f"and {len(failed) - 10} more (edmd sweep --summary {directory})")
+        err_console.print(listing)
+    console.print("results: " + escape(", ".join(str(p) for p in table.paths)), soft_wrap=True)
 
 
 tables_app = typer.Typer(no_args_is_help=True, help="Lookup tables of the matrix of restitution (soft contacts).")

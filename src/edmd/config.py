@@ -16,6 +16,8 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from . import collide
+
 
 class ConfigError(ValueError):
     """A configuration problem; the message names the key and what is wrong."""
@@ -62,9 +64,14 @@ class SystemConfig(_Section):
     mass: float = Field(1.0, gt=0)
     density: float | None = Field(None, gt=0, description="material density: mass = density * volume")
     aspect: list[Annotated[float, Field(gt=0)]] | None = None
+    gravity: list[float] | None = Field(None, description="uniform acceleration, d components")
+    from_file: str | None = Field(None, description="start from a frame of this GSD file (other keys then ignored)")
+    from_frame: int = Field(-1, description="frame of from_file (negative counts from the end)")
 
     @model_validator(mode="after")
     def _consistent(self):
+        if self.gravity is not None and len(self.gravity) != self.dim:
+            raise ValueError(f"gravity needs {self.dim} components")
         if self.lattice is not None and self.init != "lattice":
             raise ValueError("'lattice' is only used with init = 'lattice'")
         if self.lattice in ("fcc", "sc") and self.dim == 2 or self.lattice in ("hex", "square") and self.dim == 3:
@@ -75,16 +82,82 @@ class SystemConfig(_Section):
 
 
 class CollisionConfig(_Section):
-    """``[collision]``: the collision rule."""
+    """``[collision]``: the collision rule (:mod:`edmd.collide`).
 
-    rule: Literal["elastic", "inelastic"] = "elastic"
-    e_n: float = Field(1.0, ge=0, le=1, description="normal restitution coefficient")
+    ``rule``: ``"elastic"``; ``"inelastic"`` (``e_n``); ``"rough"`` (``e_n`` or the viscoelastic
+    material, and ``beta`` or ``e_t = -beta``, optional Coulomb ``mu``); ``"viscoelastic"``
+    (``young``, ``poisson``, ``A``). ``tc`` switches the TC model on with that duration.
+    """
+
+    rule: Literal["elastic", "inelastic", "rough", "viscoelastic"] = "elastic"
+    e_n: float | None = Field(None, ge=0, le=1, description="normal restitution coefficient")
+    beta: float | None = Field(None, ge=-1, le=1, description="tangential restitution (-1 smooth, 1 perfectly rough)")
+    e_t: float | None = Field(None, ge=-1, le=1, description="tangential restitution in the e_t = -beta convention")
+    mu: float | None = Field(None, ge=0, description="Coulomb friction coefficient")
+    young: float | None = Field(None, gt=0, description="Young's modulus (viscoelastic)")
+    poisson: float | None = Field(None, gt=-1, le=0.5, description="Poisson ratio (viscoelastic)")
+    A: float | None = Field(None, ge=0, description="dissipative time constant (viscoelastic)")
+    tc: float | None = Field(None, gt=0, description="TC model duration")
 
     @model_validator(mode="after")
     def _consistent(self):
-        if self.rule == "elastic" and self.e_n != 1.0:
-            raise ValueError("rule 'elastic' has e_n = 1; use rule = 'inelastic' for e_n < 1")
+        material = [k for k in ("young", "poisson", "A") if getattr(self, k) is not None]
+        tangential = [k for k in ("beta", "e_t", "mu") if getattr(self, k) is not None]
+        if self.rule == "elastic" and (self.e_n not in (None, 1.0) or material or tangential):
+            raise ValueError("rule 'elastic' takes no parameters but tc (use 'inelastic', 'rough' or 'viscoelastic')")
+        if self.rule == "inelastic" and (self.e_n is None or material or tangential):
+            raise ValueError("rule 'inelastic' needs e_n (and no tangential or material parameters)")
+        if self.rule == "viscoelastic" and (len(material) < 3 or self.e_n is not None or tangential):
+            raise ValueError("rule 'viscoelastic' needs young, poisson and A (and no e_n or tangential parameters)")
+        if self.rule == "rough":
+            if (self.e_n is None) == (len(material) < 3):
+                raise ValueError("rule 'rough' needs either e_n or the viscoelastic material (young, poisson, A)")
+            if self.beta is None and self.e_t is None:
+                raise ValueError("rule 'rough' needs beta (or e_t = -beta)")
+        if 0 < len(material) < 3:
+            raise ValueError("the viscoelastic material needs all of young, poisson and A")
         return self
+
+    def material(self) -> collide.Viscoelastic | None:
+        """The viscoelastic material, if given."""
+        if self.young is None:
+            return None
+        return collide.Viscoelastic(young=self.young, poisson=self.poisson, A=self.A)
+
+    def build(self) -> collide.Rule:
+        """The :mod:`edmd.collide` rule object."""
+        if self.rule == "elastic":
+            rule = collide.Inelastic(1.0)
+        elif self.rule == "inelastic":
+            rule = collide.Inelastic(self.e_n)
+        elif self.rule == "viscoelastic":
+            rule = self.material()
+        else:
+            rule = collide.Rough(self.e_n if self.e_n is not None else self.material(), beta=self.beta, e_t=self.e_t, mu=self.mu)
+        return collide.TC(rule, self.tc) if self.tc is not None else rule
+
+
+class WallsConfig(_Section):
+    """``[walls]``: hard walls closing the listed axes at +-L/2 (the others stay periodic)."""
+
+    axes: list[Literal["x", "y", "z"]] = []
+    e_n: float = Field(1.0, ge=0, le=1, description="normal restitution of the walls")
+    beta: float | None = Field(None, ge=-1, le=1, description="tangential restitution (default -1: smooth)")
+    e_t: float | None = Field(None, ge=-1, le=1)
+    mu: float | None = Field(None, ge=0)
+    viscoelastic: bool = Field(False, description="use the collision's viscoelastic material for e_n(v) at the walls")
+
+    @model_validator(mode="after")
+    def _consistent(self):
+        if len(set(self.axes)) != len(self.axes):
+            raise ValueError(f"axes repeated: {self.axes}")
+        if self.beta is not None and self.e_t is not None:
+            raise ValueError("give either beta or e_t (= -beta), not both")
+        return self
+
+    def build(self, material: collide.Viscoelastic | None) -> collide.Wall:
+        """The :class:`edmd.collide.Wall` object (``material``: the collision's, for ``viscoelastic``)."""
+        return collide.Wall(e_n=material if self.viscoelastic else self.e_n, beta=self.beta, e_t=self.e_t, mu=self.mu)
 
 
 class RunConfig(_Section):
@@ -163,13 +236,26 @@ class OutputConfig(_Section):
     thermo: bool = True
     trajectory: bool = True
     trajectory_interval: float | None = Field(None, gt=0, description="default: run.output_interval")
+    checkpoint: bool = True
+    checkpoint_interval: float | None = Field(None, gt=0, description="simulation time; default: run.output_interval")
+    checkpoint_wall_interval: float | None = Field(None, gt=0, description="seconds between checkpoint writes")
+    plots: bool = True
 
 
 class Config(_Section):
     """A whole run."""
 
+    @model_validator(mode="after")
+    def _walls_fit(self):
+        if self.system.dim == 2 and "z" in self.walls.axes:
+            raise ValueError("walls.axes: a 2D system has no z axis")
+        if self.walls.viscoelastic and self.collision.young is None:
+            raise ValueError("walls.viscoelastic needs a viscoelastic material in [collision] (young, poisson, A)")
+        return self
+
     system: SystemConfig = SystemConfig()
     collision: CollisionConfig = CollisionConfig()
+    walls: WallsConfig = WallsConfig()
     run: RunConfig = RunConfig()
     engine: EngineConfig = EngineConfig()
     output: OutputConfig = OutputConfig()
@@ -181,8 +267,10 @@ class Config(_Section):
         if self.integrator.kind == "dem":
             if self.contact is None:
                 raise ValueError("integrator.kind = 'dem' needs a [contact] section (model = 'dashpot' or 'hertz')")
-            if self.collision.rule != "elastic":
-                raise ValueError("the DEM takes its dissipation from [contact]; leave [collision] at rule = 'elastic'")
+            if self.collision.rule != "elastic" or self.collision.tc is not None:
+                raise ValueError("the DEM takes its dissipation from [contact]; leave [collision] at rule = 'elastic' (no tc)")
+            if self.walls.axes:
+                raise ValueError("the DEM needs a periodic box: leave walls.axes empty")
         elif self.contact is not None:
             raise ValueError("[contact] is used by integrator.kind = 'dem' only")
         return self
@@ -285,9 +373,18 @@ init = "lattice"          # "lattice" (fcc/sc in 3D, hex/square in 2D) or "rando
 radius = 0.5              # or a distribution, e.g. { kind = "uniform", min = 0.4, max = 0.6 }
 mass = 1.0                # or set density = ... to give mass = density * particle volume
 
+# gravity = [0.0, 0.0, -9.81]   # uniform acceleration (put it in [system])
+
 [collision]
-rule = "elastic"          # or "inelastic" with e_n < 1
+rule = "elastic"          # "inelastic" (e_n), "rough" (e_n, beta or e_t = -beta, optional Coulomb mu),
+                          # "viscoelastic" (young, poisson, A: e_n(v) of viscoelastic spheres)
 # e_n = 0.9
+# beta = 0.0
+# tc = 1e-5               # TC model against inelastic collapse: elastic within tc of a previous collision
+
+[walls]
+axes = []                 # axes closed by hard walls at +-L/2, e.g. ["z"]; the others are periodic
+e_n = 1.0                 # wall restitution (beta, e_t, mu as for rough particles)
 
 [run]
 until_time = 20.0         # simulation time to reach
@@ -304,6 +401,10 @@ skin = 0.5                # neighbour-list shell, in mean diameters
 thermo = true             # thermo.csv: time, events, collisions, temperature, pressure, ...
 trajectory = true         # trajectory.gsd (GSD 5, double precision)
 # trajectory_interval = 5.0
+checkpoint = true         # checkpoint.gsd: continue with `edmd run --restart DIR`, bit for bit
+# checkpoint_interval = 10.0       # simulation time between checkpoint points (default: output_interval)
+# checkpoint_wall_interval = 600   # write a point only if this many seconds passed since the last write
+plots = true              # PNG figures at the end of the run (also: `edmd plot DIR`)
 
 [integrator]
 kind = "edmd"             # "edmd" (event-driven, hard particles) or "dem" (force-based, soft contacts)
@@ -314,3 +415,31 @@ kind = "edmd"             # "edmd" (event-driven, hard particles) or "dem" (forc
 # k = 1e4
 # e_n = 0.9
 """
+
+#: The built-in job of ``edmd run`` without a configuration: a freely cooling granular gas
+#: (Haff's law, physics.md §5.4) that leaves every kind of output behind.
+DEFAULT_JOB = """\
+[system]
+dim = 3
+n = 8000
+packing_fraction = 0.15
+kT = 1.0
+seed = 1
+
+[collision]
+rule = "inelastic"
+e_n = 0.9
+
+[run]
+until_time = 1000.0
+output_interval = 1.0
+
+[output]
+trajectory_interval = 50.0
+checkpoint_interval = 50.0
+"""
+
+
+def default_job() -> Config:
+    """The built-in showcase job (:data:`DEFAULT_JOB`)."""
+    return parse_config(tomllib.loads(DEFAULT_JOB))

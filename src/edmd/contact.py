@@ -223,6 +223,18 @@ class LinearDashpot(ContactModel):
         mu = m1 * m2 / (m1 + m2)
         return self.gamma / (2.0 * math.sqrt(self.k * mu))
 
+    def restitution_rule(self, mass: float, mass2: float | None = None):
+        """The event-driven rule with this dashpot's (constant) :math:`e_n` for a pair of masses (:class:`edmd.collide.Inelastic`).
+
+        Example:
+            >>> round(LinearDashpot.from_restitution(0.9, k=1e4, mass=1.0).restitution_rule(1.0).e_n, 12)
+            0.9
+        """
+        from .collide import Inelastic
+
+        m2 = mass if mass2 is None else mass2
+        return Inelastic(dashpot_central(self.damping_ratio(mass, m2))[1])
+
     @classmethod
     def from_restitution(cls, e_n: float, k: float, mass: float, mass2: float | None = None) -> LinearDashpot:
         r"""The dashpot with restitution ``e_n`` for a pair of masses ``mass``, ``mass2`` (default equal).
@@ -295,6 +307,19 @@ class Hertz(ContactModel):
 
     def constants(self):
         return 2.0 * self.young / (3.0 * (1.0 - self.poisson**2)), 1.5 * self.A
+
+    def restitution_rule(self):
+        """The event-driven rule with this material's :math:`e_n(v_n)` (:class:`edmd.collide.Viscoelastic`).
+
+        Example:
+            >>> h = Hertz(young=63e9, poisson=0.2, A=1e-7)
+            >>> m = 2500 * 4 / 3 * 3.141592653589793 * 1e-9
+            >>> round(h.restitution_rule().restitution(1.0, mu=m / 2, r_eff=0.5e-3), 4), round(h.central(m, m, 1e-3, 1e-3, 1.0).e_n, 4)
+            (0.9164, 0.9164)
+        """
+        from .collide import Viscoelastic
+
+        return Viscoelastic(young=self.young, poisson=self.poisson, A=self.A)
 
     def prefactor(self, R1, R2) -> float:
         r"""Hertz prefactor :math:`\rho = \frac{2Y\sqrt{R_{\rm eff}}}{3(1-\nu^2)}` of a pair [N m^-3/2]."""

@@ -102,6 +102,7 @@ class DEMEngine:
             if g.shape != (self.dim,) or not np.all(np.isfinite(g)):
                 raise ValueError(f"gravity must be {self.dim} finite numbers, got {gravity!r}")
             grav[: self.dim] = g
+        self.grav = grav
         self.geo = L.make_geo(self.box, self.half, grav)
         self.dt = float(dt)
         sigma_max = 2.0 * float(state.radius.max())
@@ -235,7 +236,7 @@ class DEMEngine:
         return float(self.sums[_dem.S_KE_INT])
 
     @property
-    def potential_energy(self) -> float:
+    def elastic_energy(self) -> float:
         """Elastic energy stored in the contacts now."""
         return float(self.sums[_dem.S_U])
 
@@ -298,6 +299,8 @@ class DEMSimulation(Simulation):
         else:
             self.contact_time = math.nan
         self._engine = DEMEngine(state, contact, float(dt), skin * 2.0 * float(state.radius.mean()), gravity)
+        #: uniform acceleration (``d`` components), as :attr:`Simulation.gravity`
+        self.gravity = self._engine.grav[: state.dim].copy()
         self._time = float(state.time)
         self.observers = []
         self.wall_seconds = 0.0
@@ -306,6 +309,14 @@ class DEMSimulation(Simulation):
     def dt(self) -> float:
         """The (largest) time step."""
         return self._engine.dt
+
+    def add(self, observer):
+        """Attach an observer (as :meth:`Simulation.add`; checkpoints are not available for the DEM)."""
+        from .checkpoint import Checkpoint
+
+        if isinstance(observer, Checkpoint):
+            raise TypeError("checkpoints (exact restarts) are not available for the DEM; save states with a Trajectory")
+        return super().add(observer)
 
     @property
     def state(self) -> State:
@@ -318,9 +329,9 @@ class DEMSimulation(Simulation):
         self._time = float(new.time)
 
     @property
-    def potential_energy(self) -> float:
+    def elastic_energy(self) -> float:
         """Elastic energy stored in the contacts."""
-        return self._engine.potential_energy
+        return self._engine.elastic_energy
 
     @property
     def steps(self) -> int:

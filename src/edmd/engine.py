@@ -21,6 +21,7 @@ from ._core.cells import grid_shape, new_grid
 from ._core.loop import run_events, setup_events
 from ._core.queue import calendar_shape, new_queue, queue_build
 from ._core.snapshot import kinetic_energy_at, stream_all
+from . import collide
 from .state import State, StateError
 
 
@@ -66,10 +67,14 @@ class EngineError(RuntimeError):
     """The event loop found an inconsistency (debug mode) or cannot go on."""
 
 
+class CollapseError(EngineError):
+    """Events pile up at one instant: inelastic collapse, or a ball coming to rest on a wall (Zeno)."""
+
+
 class Engine:
     """Compiled-core arrays of one system (internal; see :class:`edmd.Simulation`)."""
 
-    def __init__(self, state: State, options: EngineOptions | None = None, e_n: float = 1.0, gravity=None):
+    def __init__(self, state: State, options: EngineOptions | None = None, rule=None, wall=None, gravity=None):
         self.options = options or EngineOptions()
         self.dim = state.dim
         self.n = state.n
@@ -85,7 +90,13 @@ class Engine:
         self.geo = L.make_geo(self.box, self.half, self.grav)
         self.fp = np.zeros(L.N_FP)
         self.ip = np.zeros(L.N_IP, np.int64)
-        self.fp[L.FP_EN] = e_n
+        self.rule = collide.Inelastic(1.0) if rule is None else rule
+        self.wall = collide.Wall() if wall is None else wall
+        collide.pack(self.rule, self.wall, self.fp, self.ip)
+        self.etab = collide.viscoelastic_table()[0]
+        self.ip[L.IP_WALLS] = sum(1 << k for k in range(self.dim) if not self.periodic[k])
+        self.ip[L.IP_MAXSTALL] = 2 * self.n + 1000
+        self.fp[L.FP_MTOT] = float(state.mass.sum())
         self.ip[L.IP_DEBUG] = int(self.options.debug)
         self.fp[L.FP_DEBUG_TOL] = self.options.debug_tolerance
         self.acc = np.zeros(L.N_ACC)
@@ -154,7 +165,8 @@ class Engine:
             omega[:, 2] = state.angular_velocity[order]
         image = np.zeros((n, 3), np.int32)
         image[:, : self.dim] = state.image[order]
-        self.part = (P, state.mass[order].copy(), omega, state.inertia[order].copy(), image, np.zeros(n, np.int32))
+        tlast = state.last_collision[order] - self.t_origin
+        self.part = (P, state.mass[order].copy(), omega, state.inertia[order].copy(), image, np.zeros(n, np.int32), tlast)
         self.ev = (
             np.full(n, np.inf),
             np.full(n, -1, np.int32),
@@ -203,6 +215,7 @@ class Engine:
         self.acc[L.A_NOW] = 0.0
         self.acc[L.A_LAST_T] = 0.0
         self.acc[L.A_KE] = kinetic_energy_at(self.part[0], self.part[1], 0.0, self.geo)
+        self.acc[L.A_PX : L.A_PZ + 1] = self.part[1] @ self.part[0][:, L.VX : L.VZ + 1]
         self.events_at_sync = int(self.cnt[L.C_EVENTS])
 
     # ------------------------------------------------------------------ running
@@ -228,7 +241,7 @@ class Engine:
             before = int(self.cnt[L.C_EVENTS])
             status = run_events(
                 self.part, self.ev, self.q, self.grid, self.lists, geo, self.fp, self.ip,
-                self.acc, self.cnt, self.clog, self.cbuf, t_stop - self.t_origin, chunk,
+                self.acc, self.cnt, self.clog, self.cbuf, self.etab, t_stop - self.t_origin, chunk,
             )  # fmt: skip
             budget -= int(self.cnt[L.C_EVENTS]) - before
             if status == L.ST_LOG_FULL:
@@ -236,6 +249,12 @@ class Engine:
             elif status == L.ST_LIST_FULL:
                 self.list_capacity = int(self.list_capacity * 1.5) + 4
                 self.resync()
+            elif status == L.ST_STALL:
+                raise CollapseError(
+                    f"{int(self.ip[L.IP_MAXSTALL])} events at t = {self.now!r} without the clock advancing: "
+                    "inelastic collapse (or a particle coming to rest on a wall, the Zeno limit). Use the TC "
+                    "model (collision tc = ...) or a velocity-dependent restitution"
+                )
             elif status == L.ST_OVERLAP:
                 i, j = (int(self.tag[self.cnt[c]]) for c in (L.C_BAD_I, L.C_BAD_J))
                 raise EngineError(
@@ -245,12 +264,32 @@ class Engine:
             elif status != L.ST_EVENTS:
                 return status
 
-    def resync(self):
-        """Stream everything to the current time, re-base the clock and rebuild (deterministic)."""
+    def resync(self, t: float | None = None):
+        """Stream everything to time ``t`` (default: now), re-base the clock and rebuild (deterministic).
+
+        ``t`` may lie after the last event only if no event is due before it (the engine has
+        just returned ``ST_TIME`` for a stop time ``>= t``): checkpoints resync at their exact time.
+        """
         self._flush_log()
-        now_local = float(self.acc[L.A_NOW])
-        self.acc[L.A_KE_INT] += self.acc[L.A_KE] * (now_local - self.acc[L.A_LAST_T])
-        self.load(self.snapshot(self.now))
+        local = float(self.acc[L.A_NOW]) if t is None else float(t) - self.t_origin
+        self.acc[L.A_KE_INT] += self._kinetic_tail(local)
+        self.load(self.snapshot(self.now if t is None else float(t)))
+
+    def restore(self, state: State, counters: np.ndarray, accumulators: np.ndarray, list_capacity: int):
+        """Rebuild the engine exactly as it was right after a resync to ``state`` (a checkpoint).
+
+        ``counters``, ``accumulators`` and ``list_capacity`` are the values saved right after
+        that resync; the maintenance schedule (``events_at_sync``) follows from the counters.
+        """
+        if counters.shape != self.cnt.shape or accumulators.shape != self.acc.shape:
+            raise StateError(
+                f"checkpoint counters/accumulators have shapes {counters.shape}/{accumulators.shape}, "
+                f"this engine expects {self.cnt.shape}/{self.acc.shape}"
+            )
+        self.cnt[:] = counters
+        self.acc[:] = accumulators
+        self.list_capacity = int(list_capacity)
+        self.load(state)
 
     # ------------------------------------------------------------------ observation
     def stream(self, t: float):
@@ -278,12 +317,24 @@ class Engine:
             inertia=inertia[inv],
             image=image[inv, :d],
             periodic=self.periodic,
+            last_collision=self.part[6][inv] + self.t_origin,
             check_overlaps=False,
         )
 
+    def _kinetic_tail(self, t_local: float) -> float:
+        """Integral of the translational kinetic energy from the last energy-changing event to ``t_local``.
+
+        Same exact gravity-aware formula as :func:`edmd._core.loop.integrate_kinetic`.
+        """
+        tau = t_local - self.acc[L.A_LAST_T]
+        g = self.grav
+        gp = float(g @ self.acc[L.A_PX : L.A_PZ + 1])
+        mg2 = self.fp[L.FP_MTOT] * float(g @ g)
+        return float(self.acc[L.A_KE] * tau + 0.5 * gp * tau**2 + mg2 * tau**3 / 6.0)
+
     def kinetic_integral(self, t: float) -> float:
-        """Time integral of the kinetic energy since the last resync, up to absolute ``t``."""
-        return float(self.acc[L.A_KE_INT] + self.acc[L.A_KE] * (t - self.t_origin - self.acc[L.A_LAST_T]))
+        """Cumulative time integral of the translational kinetic energy up to absolute ``t``."""
+        return float(self.acc[L.A_KE_INT]) + self._kinetic_tail(t - self.t_origin)
 
     # ------------------------------------------------------------------ collision log
     def enable_log(self, capacity: int = 65536):

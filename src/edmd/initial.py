@@ -84,6 +84,13 @@ def _masses(r, dim, mass, density):
     return np.broadcast_to(np.asarray(mass, float), r.shape).copy()
 
 
+def _periodic_flags(periodic, dim) -> np.ndarray:
+    flags = np.ones(dim, bool) if periodic is None else np.asarray(periodic, bool)
+    if flags.shape != (dim,):
+        raise StateError(f"periodic must be {dim} booleans, got {periodic!r}")
+    return flags
+
+
 def _box_for(n_particle_volume, packing_fraction, dim, aspect):
     if not 0 < packing_fraction < 1:
         raise StateError(f"packing fraction must be in (0, 1), got {packing_fraction}")
@@ -125,8 +132,12 @@ def lattice(
     mass: float = 1.0,
     density: float | None = None,
     seed: int = 0,
+    periodic: Sequence[bool] | None = None,
 ) -> State:
-    """Particles on a lattice (fcc/sc in 3D, hex/square in 2D) in a periodic box, at rest.
+    """Particles on a lattice (fcc/sc in 3D, hex/square in 2D) in a box, at rest.
+
+    ``periodic`` marks periodic axes (default: all); the other axes are closed by walls and the
+    lattice is fitted between them (outermost sites 1.001 largest radii from the walls).
 
     The box is as cubic as the lattice allows and holds the smallest lattice with at least
     ``n`` sites; surplus sites are left empty at random. Polydisperse radii are placed at random
@@ -167,10 +178,15 @@ def lattice(
     chosen = np.sort(rng.choice(len(sites), size=n, replace=False)) if len(sites) > n else np.arange(n)
     pos = pos[chosen] - 0.5 * box + 0.25 * a * cell
     pos = (pos + 0.5 * box) % box - 0.5 * box
+    periodic = _periodic_flags(periodic, dim)
+    for k in np.flatnonzero(~periodic):  # fit the occupied sites between the walls
+        lo, hi = pos[:, k].min(), pos[:, k].max()
+        inner = 0.5 * box[k] - r.max() * (1.0 + 1e-3)  # a gap: resting on a wall is a Zeno limit
+        pos[:, k] = 0.0 if hi == lo else (pos[:, k] - lo) / (hi - lo) * 2.0 * inner - inner
     r = rng.permutation(r) if np.ptp(r) > 0 else r
     nn = a * {"sc": 1.0, "fcc": 1 / math.sqrt(2), "square": 1.0, "hex": 1.0}[kind]
-    if nn < 2.0 * r.max() * (1 + 1e-12):
-        trial = State(position=pos, velocity=np.zeros_like(pos), radius=r, mass=1.0, box=box, check_overlaps=False)
+    if nn < 2.0 * r.max() * (1 + 1e-12) or not periodic.all():
+        trial = State(position=pos, velocity=np.zeros_like(pos), radius=r, mass=1.0, box=box, periodic=periodic, check_overlaps=False)
         if trial.overlapping_pair(0.0) is not None:
             eta_max = packing_fraction * (nn / (2.0 * r.max())) ** dim
             magic = {"fcc": "4 k^3", "sc": "k^3", "square": "k^2", "hex": "2 k^2 (near-square boxes)"}[kind]
@@ -181,7 +197,7 @@ def lattice(
             )
     r = rng.permutation(r) if np.ptp(r) > 0 else r
     m = _masses(r, dim, mass, density)
-    return State(position=pos, velocity=np.zeros_like(pos), radius=r, mass=m, box=box)
+    return State(position=pos, velocity=np.zeros_like(pos), radius=r, mass=m, box=box, periodic=periodic)
 
 
 def random_packing(
@@ -195,6 +211,7 @@ def random_packing(
     aspect: Sequence[float] | None = None,
     max_attempts: int = 1000,
     method: str = "auto",
+    periodic: Sequence[bool] | None = None,
 ) -> State:
     """Random, non-overlapping particles in a periodic box, at rest.
 
@@ -204,7 +221,8 @@ def random_packing(
     by steepest descent on a harmonic overlap energy (radii inflated so that a gap remains);
     works up to near random close packing and gives an amorphous start for dense fluids.
     ``method="auto"``: relaxation above eta = 0.2 (3D) / 0.4 (2D), else insertion, continued by
-    relaxation if it gets stuck.
+    relaxation if it gets stuck. ``periodic`` marks periodic axes (default: all); the others are
+    closed by walls that the particles stay inside of.
 
     Example:
         >>> s = random_packing(100, 0.1, dim=2, seed=3)
@@ -225,10 +243,11 @@ def random_packing(
     r = r[order]
     box3 = np.ones(3)
     box3[:dim] = box
+    periodic = _periodic_flags(periodic, dim)
     half = np.full(3, np.inf)
-    half[:dim] = 0.5 * box
+    half[:dim] = np.where(periodic, 0.5 * box, np.inf)
     geo = make_geo(box3, half)
-    nc = grid_shape(box3, np.r_[np.ones(dim, bool), np.zeros(3 - dim, bool)], 2.0 * r.max())
+    nc = grid_shape(box3, np.r_[periodic, np.zeros(3 - dim, bool)], 2.0 * r.max())
     grid = new_grid(n, box3, nc)
     pos3 = np.zeros((n, 3))
     placed, attempts, batch = 0, 0, 16
@@ -245,9 +264,9 @@ def random_packing(
                 f"random insertion failed at particle {placed} of {n} after {max_attempts} attempts: packing "
                 f"fraction {packing_fraction} is too high for random insertion; use method='relax' or a lattice"
             )
-        pos3[placed:, :dim] = (rng.random((n - placed, dim)) - 0.5) * box
+        pos3[placed:, :dim] = (rng.random((n - placed, dim)) - 0.5) * (box - 2.0 * r.max() * ~periodic)
         inflate = 1.0 + 2e-3
-        nc = grid_shape(box3, np.r_[np.ones(dim, bool), np.zeros(3 - dim, bool)], 2.0 * r.max() * inflate)
+        nc = grid_shape(box3, np.r_[periodic, np.zeros(3 - dim, bool)], 2.0 * r.max() * inflate)
         sweeps = relax_overlaps(pos3, r, geo, new_grid(n, box3, nc), inflate, 0.3, 20000, dim)
         if sweeps > 20000:
             raise StateError(
@@ -255,7 +274,7 @@ def random_packing(
                 f"(random packings jam near 0.64 in 3D, 0.84 in 2D); use a lattice start"
             )
     m = _masses(r, dim, mass, density)
-    return State(position=pos3[:, :dim], velocity=np.zeros((n, dim)), radius=r, mass=m, box=box)
+    return State(position=pos3[:, :dim], velocity=np.zeros((n, dim)), radius=r, mass=m, box=box, periodic=periodic)
 
 
 def maxwell_boltzmann(state: State, kT: float, seed: int = 0, spin: bool = False) -> State:

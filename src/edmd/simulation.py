@@ -5,16 +5,18 @@ from __future__ import annotations
 import dataclasses
 import math
 import time as _time
+import warnings
 from collections.abc import Callable
 
 import numpy as np
 
+from . import collide
 from ._core import layout as L
-from .engine import Engine, EngineOptions
+from .engine import Engine, EngineError, EngineOptions
 from .state import State
 
 
-@dataclasses.dataclass
+@dataclasses.dataclass(eq=False)
 class Totals:
     """Cumulative counters and integrals of a simulation since its start (monotonic).
 
@@ -24,7 +26,9 @@ class Totals:
         collisions: binary collisions.
         virial: :math:`\\sum_{\\rm coll} \\mathbf r_{ij}\\cdot\\mathbf J` (physics.md §5.3).
         kinetic_integral: :math:`\\int E_{\\rm kin}\\,dt`.
-        dissipated: kinetic energy lost in collisions.
+        dissipated: kinetic (translational + rotational) energy lost in collisions.
+        wall_impulse: ``(d, 2)`` normal momentum taken by the lower and upper wall of each axis.
+        wall_collisions: particle-wall collisions.
     """
 
     time: float
@@ -33,6 +37,23 @@ class Totals:
     virial: float
     kinetic_integral: float
     dissipated: float
+    wall_impulse: np.ndarray
+    wall_collisions: int
+
+    def __eq__(self, other):
+        return isinstance(other, Totals) and self.to_dict() == other.to_dict()
+
+    def to_dict(self) -> dict:
+        """JSON-ready (exact: floats survive JSON's repr round trip)."""
+        out = dataclasses.asdict(self)
+        out["wall_impulse"] = self.wall_impulse.tolist()
+        return out
+
+    @classmethod
+    def from_dict(cls, data: dict) -> Totals:
+        data = dict(data)
+        data["wall_impulse"] = np.asarray(data["wall_impulse"], np.float64).reshape(-1, 2)
+        return cls(**data)
 
 
 class Observer:
@@ -40,8 +61,13 @@ class Observer:
 
     Subclasses implement :meth:`observe`; ``interval`` is the spacing, ``start`` the first time
     (the simulation's time when attached, by default). Firing times are ``start + k*interval``
-    computed by multiplication, so they never drift.
+    computed by multiplication, so they never drift. Observers due at the same time fire in
+    order of ``priority`` (then in the order they were added); checkpoints fire last.
+    Observers that hold more than their schedule extend :meth:`checkpoint_data` and
+    :meth:`restore_data` so that a restarted run continues them exactly.
     """
+
+    priority = 0
 
     def __init__(self, interval: float, start: float | None = None):
         if not interval > 0 or not math.isfinite(interval):
@@ -58,6 +84,17 @@ class Observer:
     @property
     def next_time(self) -> float:
         return self.start + self._k * self.interval
+
+    def checkpoint_data(self) -> dict:
+        """Everything needed to continue this observer exactly: JSON values or numpy arrays."""
+        return {"start": self.start, "interval": self.interval, "k": self._k}
+
+    def restore_data(self, data: dict):
+        """Continue from :meth:`checkpoint_data` (called after :meth:`attach`)."""
+        if data["interval"] != self.interval:
+            raise ValueError(f"interval {self.interval!r} differs from the checkpoint's {data['interval']!r}")
+        self.start = data["start"]
+        self._k = int(data["k"])
 
     def fire(self, sim: Simulation, state: State, totals: Totals):
         self.observe(sim, state, totals)
@@ -92,11 +129,14 @@ class Callback(Observer):
 
 
 class Simulation:
-    """Event-driven molecular dynamics of one system.
+    r"""Event-driven molecular dynamics of one system.
 
     Args:
         state: the initial :class:`~edmd.state.State` (validated: no overlaps, positive radii...).
-        e_n: constant normal restitution coefficient (1 = elastic hard spheres).
+            Its non-periodic axes are closed by hard walls at :math:`\pm L/2`.
+        collision: the collision rule (:mod:`edmd.collide`); elastic smooth spheres by default.
+        e_n: shortcut for ``collision=Inelastic(e_n)``.
+        walls: restitution of the walls (:class:`edmd.collide.Wall`), elastic and smooth by default.
         gravity: uniform acceleration (``d`` numbers) or ``None``.
         engine: :class:`~edmd.engine.EngineOptions` (or a dict of them).
 
@@ -108,12 +148,36 @@ class Simulation:
         (2.0, True)
     """
 
-    def __init__(self, state: State, *, e_n: float = 1.0, gravity=None, engine: EngineOptions | dict | None = None):
-        if not 0.0 <= e_n <= 1.0:
-            raise ValueError(f"e_n must be in [0, 1], got {e_n}")
+    def __init__(
+        self,
+        state: State,
+        *,
+        collision: collide.Rule | None = None,
+        e_n: float | None = None,
+        walls: collide.Wall | None = None,
+        gravity=None,
+        engine: EngineOptions | dict | None = None,
+    ):
+        if e_n is not None:
+            if collision is not None:
+                raise ValueError("give either collision or the e_n shortcut, not both")
+            collision = collide.Inelastic(e_n)
         if isinstance(engine, dict):
             engine = EngineOptions(**engine)
-        self._engine = Engine(state, engine, e_n=e_n, gravity=gravity)
+        if isinstance(collision, dict):
+            collision = collide.from_dict(collision)
+        if isinstance(walls, dict):
+            walls = collide.from_dict(walls)
+        self._engine = Engine(state, engine, rule=collision, wall=walls, gravity=gravity)
+        self.gravity = self._engine.grav[: state.dim].copy()
+        _warn_viscoelastic_validity(state, self._engine.rule, self._engine.wall, self.gravity)
+        #: the constructor's physics arguments (saved in checkpoints; new arguments belong here)
+        self.params = {
+            "collision": collide.to_dict(self._engine.rule),
+            "walls": collide.to_dict(self._engine.wall),
+            "gravity": None if gravity is None else [float(g) for g in gravity],
+            "engine": dataclasses.asdict(self._engine.options),
+        }
         self._time = float(state.time)
         self.observers: list[Observer] = []
         self.wall_seconds = 0.0
@@ -160,7 +224,19 @@ class Simulation:
             virial=float(e.acc[L.A_VIRIAL]),
             kinetic_integral=e.kinetic_integral(self._time),
             dissipated=float(e.acc[L.A_DISSIPATED]),
+            wall_impulse=e.acc[L.A_WALL : L.A_WALL + 2 * e.dim].reshape(e.dim, 2).copy(),
+            wall_collisions=int(e.cnt[L.C_WALL]),
         )
+
+    @classmethod
+    def from_checkpoint(cls, path, observers=()) -> Simulation:
+        """The simulation saved in checkpoint ``path``, continuing exactly (see :mod:`edmd.checkpoint`).
+
+        ``observers`` are attached and restored in order; they must match the checkpoint's.
+        """
+        from .checkpoint import load_checkpoint
+
+        return load_checkpoint(path, observers)
 
     # ------------------------------------------------------------------ observers
     def add(self, observer: Observer) -> Observer:
@@ -170,7 +246,7 @@ class Simulation:
         return observer
 
     def _fire_due(self):
-        due = [o for o in self.observers if o.next_time <= self._time]
+        due = sorted((o for o in self.observers if o.next_time <= self._time), key=lambda o: o.priority)
         if due:
             state = self.state
             totals = self.totals()
@@ -212,7 +288,11 @@ class Simulation:
             while budget > 0 and _time.perf_counter() < deadline:
                 stop = min([target] + [o.next_time for o in self.observers])
                 before = self.events
-                status = self._engine.advance(stop, min(budget, chunk))
+                try:
+                    status = self._engine.advance(stop, min(budget, chunk))
+                except EngineError:
+                    self._time = max(self._time, self._engine.now)  # consistent: inspect sim.state
+                    raise
                 budget -= self.events - before
                 if status in (L.ST_TIME, L.ST_IDLE) and math.isfinite(stop):
                     self._time = stop
@@ -234,6 +314,21 @@ class Simulation:
         """Close every observer (flush files)."""
         for o in self.observers:
             o.close()
+
+
+def _warn_viscoelastic_validity(state: State, rule, wall, gravity):
+    """Warn when impacts may reach delta > 1, outside the viscoelastic model (physics.md §2.2.2)."""
+    for material in collide.materials(rule, wall):
+        speed = 2.0 * float(np.max(np.linalg.norm(state.velocity, axis=1)))
+        speed += float(np.linalg.norm(gravity)) ** 0.5 * float(np.max(state.box)) ** 0.5 * 2.0
+        mu = 0.5 * float(state.mass.min())
+        delta = material.beta_v(mu, 0.5 * float(state.radius.min())) * speed**0.2
+        if delta > 1.0:
+            warnings.warn(
+                f"viscoelastic impacts may reach delta = {delta:.3g} > 1 (impact speed up to ~{speed:.3g}), "
+                "outside the validity of the viscoelastic model (dissipative force above the elastic one)",
+                stacklevel=3,
+            )
 
 
 class _Progress:

@@ -58,7 +58,10 @@ class State:
         angular_velocity: ``(N, 3)`` in 3D, ``(N,)`` in 2D (zeros by default).
         inertia: ``(N,)`` moments of inertia (solid spheres/disks by default).
         image: ``(N, d)`` integer periodic images (for unwrapped positions).
-        periodic: ``(d,)`` periodic flags (all ``True`` by default).
+        periodic: ``(d,)`` periodic flags (all ``True`` by default); every other axis is
+            closed by hard walls at :math:`\pm L/2`.
+        last_collision: ``(N,)`` time of each particle's last collision (``-inf``: none yet), the
+            memory of the TC model.
 
     Example:
         >>> s = State(position=[[0.0, 0.0], [1.5, 0.0]], velocity=[[1.0, 0.0], [0.0, 0.0]],
@@ -77,6 +80,7 @@ class State:
     inertia: np.ndarray | None = None
     image: np.ndarray | None = None
     periodic: np.ndarray | None = None
+    last_collision: np.ndarray | None = None
     check_overlaps: dataclasses.InitVar[bool] = True
 
     def __post_init__(self, check_overlaps: bool = True):
@@ -110,6 +114,10 @@ class State:
         if periodic.shape != (d,):
             raise StateError(f"periodic must have shape {(d,)}, got {periodic.shape}")
         self.periodic = periodic.copy()
+        last = np.full(n, -np.inf) if self.last_collision is None else np.array(self.last_collision, np.float64)
+        if last.shape != (n,) or np.any(np.isnan(last)) or np.any(last == np.inf):
+            raise StateError(f"last_collision must be {n} times (or -inf), got shape {last.shape}")
+        self.last_collision = last
         self._check_values()
         if check_overlaps:
             self.check_no_overlap()
@@ -216,6 +224,15 @@ class State:
         if self.dim == 3:
             w2 = w2.sum(axis=1)
         return 0.5 * float(np.sum(self.inertia * w2))
+
+    def rotational_temperature(self) -> float:
+        r"""Rotational temperature :math:`T_{\rm rot} = \frac{1}{d_r N}\sum_i I_i\omega_i^2` (:math:`d_r` = 3 in 3D, 1 in 2D)."""
+        return 2.0 * self.rotational_energy() / ((3 if self.dim == 3 else 1) * self.n)
+
+    def potential_energy(self, gravity) -> float:
+        r"""Potential energy :math:`-\sum_i m_i\,\mathbf G\cdot\mathbf r_i` in uniform gravity (unwrapped positions)."""
+        g = np.zeros(self.dim) if gravity is None else np.asarray(gravity, float)
+        return -float(self.mass @ (self.unwrapped_position @ g))
 
     def momentum(self) -> np.ndarray:
         """Total linear momentum."""

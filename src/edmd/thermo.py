@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import csv
+import io
 import math
 import os
 
 import numpy as np
 
+from ._io import write_text
 from .simulation import Observer, Simulation, Totals
 from .state import State
 
@@ -17,10 +19,20 @@ COLUMNS = (
     "collisions",
     "kinetic_energy",
     "temperature",
+    "rotational_energy",
+    "temperature_rot",
+    "potential_energy",
+    "dissipated_energy",
+    "energy_balance",
     "pressure",
     "collision_rate",
-    "dissipated_energy",
+    "wall_collisions",
 )
+AXES = "xyz"
+
+# Columns that are running totals: summaries (the sweep results table) report their final value
+# and time-average every other column. Counters added to the table later belong here too.
+CUMULATIVE = ("time", "events", "collisions", "dissipated_energy")
 
 
 def pressure(state: State, d_kinetic_integral: float, d_virial: float, dt: float) -> float:
@@ -45,10 +57,15 @@ def pressure(state: State, d_kinetic_integral: float, d_virial: float, dt: float
 class Thermo(Observer):
     """Thermodynamic table, one row per interval, optionally written to a CSV file.
 
-    Each row holds the instantaneous ``time, events, collisions, kinetic_energy, temperature,
-    dissipated_energy`` and, averaged over the interval that ends there, the ``pressure``
-    (kinetic + collision virial, physics.md §5.3) and the ``collision_rate`` per particle,
-    :math:`2\\Delta N_{\\rm coll}/(N\\Delta t)`. The first row has no interval (NaN).
+    Each row holds the instantaneous ``time, events, collisions``, the translational
+    ``kinetic_energy`` and ``temperature``, the ``rotational_energy`` and ``temperature_rot``,
+    the gravitational ``potential_energy``, the cumulative ``dissipated_energy`` and their sum
+    ``energy_balance`` (constant to round-off: kinetic + rotational + potential + dissipated),
+    and, averaged over the interval that ends there, the ``pressure`` (kinetic + collision
+    virial, physics.md §5.3; meaningful in periodic directions), the ``collision_rate`` per
+    particle :math:`2\\Delta N_{\\rm coll}/(N\\Delta t)` and, for every axis closed by walls,
+    ``wall_pressure_<axis>``: the mean normal force per area on its two walls. The first row has
+    no interval (NaN).
 
     Example:
         >>> import edmd
@@ -68,21 +85,34 @@ class Thermo(Observer):
         self._last: Totals | None = None
 
     def observe(self, sim: Simulation, state: State, totals: Totals):
+        kinetic, rotational = state.kinetic_energy(), state.rotational_energy()
+        potential = state.potential_energy(sim.gravity) + getattr(sim, "elastic_energy", 0.0)  # + soft contacts (DEM)
         row = {
             "time": totals.time,
             "events": totals.events,
             "collisions": totals.collisions,
-            "kinetic_energy": state.kinetic_energy(),
+            "kinetic_energy": kinetic,
             "temperature": state.temperature(),
+            "rotational_energy": rotational,
+            "temperature_rot": state.rotational_temperature(),
+            "potential_energy": potential,
+            "dissipated_energy": totals.dissipated,
+            "energy_balance": kinetic + rotational + potential + totals.dissipated,
             "pressure": math.nan,
             "collision_rate": math.nan,
-            "dissipated_energy": totals.dissipated,
+            "wall_collisions": totals.wall_collisions,
         }
+        walls = np.flatnonzero(~state.periodic)
+        for k in walls:
+            row[f"wall_pressure_{AXES[k]}"] = math.nan
         last = self._last
         if last is not None and totals.time > last.time:
             dt = totals.time - last.time
             row["pressure"] = pressure(state, totals.kinetic_integral - last.kinetic_integral, totals.virial - last.virial, dt)
             row["collision_rate"] = 2.0 * (totals.collisions - last.collisions) / (state.n * dt)
+            for k in walls:
+                area = state.volume / state.box[k]
+                row[f"wall_pressure_{AXES[k]}"] = float((totals.wall_impulse[k] - last.wall_impulse[k]).sum()) / (2.0 * area * dt)
         self._last = totals
         self.rows.append(row)
         if self.path is not None:
@@ -92,20 +122,58 @@ class Thermo(Observer):
         if self._file is None:
             new = not os.path.exists(self.path) or os.path.getsize(self.path) == 0
             self._file = open(self.path, "a", newline="")
-            self._writer = csv.DictWriter(self._file, fieldnames=COLUMNS)
+            self._writer = csv.DictWriter(self._file, fieldnames=list(row))
             if new:
                 self._writer.writeheader()
-        self._writer.writerow({k: repr(float(v)) if isinstance(v, float) else v for k, v in row.items()})
+        self._writer.writerow(_csv_row(row))
         self._file.flush()
+
+    def checkpoint_data(self) -> dict:
+        """Schedule, the rows (exact float64 table) and the totals of the last row."""
+        data = super().checkpoint_data()
+        columns = self.columns()
+        data["columns"] = columns
+        data["integer_columns"] = [c for c in columns if self.rows and isinstance(self.rows[0][c], int)]
+        data["last"] = None if self._last is None else self._last.to_dict()
+        if self.rows:
+            data["rows"] = np.array([[float(r[c]) for c in columns] for r in self.rows], np.float64)
+        return data
+
+    def columns(self) -> list[str]:
+        """The table's columns: :data:`COLUMNS` plus one ``wall_pressure_<axis>`` per wall axis."""
+        return list(self.rows[0]) if self.rows else list(COLUMNS)
+
+    def restore_data(self, data: dict):
+        """Continue from a checkpoint; the CSV file is rewritten (atomically) from the saved rows."""
+        super().restore_data(data)
+        columns, ints = list(data["columns"]), set(data["integer_columns"])
+        extra = columns[len(COLUMNS) :]
+        if columns[: len(COLUMNS)] != list(COLUMNS) or not all(c.startswith("wall_pressure_") for c in extra):
+            raise ValueError(f"thermo columns {columns} differ from this version's {list(COLUMNS)} (+ wall pressures)")
+        table = np.asarray(data.get("rows", np.zeros((0, len(columns)))), np.float64)
+        self.rows = [{c: int(v) if c in ints else float(v) for c, v in zip(columns, r)} for r in table]
+        self._last = None if data["last"] is None else Totals.from_dict(data["last"])
+        self.close()
+        if self.path is not None:
+            buf = io.StringIO(newline="")
+            writer = csv.DictWriter(buf, fieldnames=columns)
+            writer.writeheader()
+            writer.writerows(_csv_row(r) for r in self.rows)
+            write_text(self.path, buf.getvalue())
 
     def table(self) -> dict[str, np.ndarray]:
         """The rows as a dict of column arrays."""
-        return {c: np.array([r[c] for r in self.rows]) for c in COLUMNS}
+        return {c: np.array([r[c] for r in self.rows]) for c in self.columns()}
 
     def close(self):
         if self._file is not None:
             self._file.close()
             self._file = None
+
+
+def _csv_row(row: dict) -> dict:
+    """A thermo row as CSV cells: floats as their shortest exact ``repr``."""
+    return {k: repr(float(v)) if isinstance(v, float) else v for k, v in row.items()}
 
 
 def read_thermo(path: str | os.PathLike) -> dict[str, np.ndarray]:

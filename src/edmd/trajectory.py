@@ -1,20 +1,47 @@
 """Trajectories in GSD 5, double precision (readable by HOOMD-blue, OVITO, freud, MDAnalysis).
 
 Standard chunks: positions, velocities, diameters, masses, moments of inertia, images, box,
-dimensions. Under ``log/``: the continuous ``time``, the ``events`` and ``collisions`` counters,
-the exact double-precision box (``log/configuration/box``; GSD stores the standard box in
-single precision), the periodic flags and ``log/particles/angular_velocity``.
+dimensions, orientations (identity quaternions: spheres have no orientation) and angular
+momenta in HOOMD's convention (``particles/angmom``, see :func:`angmom`). Under ``log/``: the
+continuous ``time``, the ``events`` and ``collisions`` counters, the exact double-precision box
+(``log/configuration/box``; GSD stores the standard box in single precision), the periodic
+flags, the radii and ``log/particles/angular_velocity``.
 """
 
 from __future__ import annotations
 
 import os
+from collections.abc import Iterator
 
 import gsd.hoomd
 import numpy as np
 
+from ._io import atomic_path
 from .simulation import Observer, Simulation, Totals
 from .state import State, StateError
+
+
+def angmom(state: State) -> np.ndarray:
+    r"""Angular momenta as HOOMD-blue quaternions, ``(N, 4)``.
+
+    HOOMD stores the angular momentum as the quaternion conjugate to the orientation ``q``,
+    :math:`\mathbf P = 2\,\mathbf q \otimes (0, \mathbf S)` with :math:`\mathbf S` the angular
+    momentum in the particle's principal frame. Spheres and disks keep the identity orientation
+    ``q = (1, 0, 0, 0)``, so :math:`\mathbf P = (0, 2 I \boldsymbol\omega)`; a disk spins about
+    ``z`` only: :math:`\mathbf P = (0, 0, 0, 2 I \omega_z)`.
+
+    Example:
+        >>> s = State(position=[[0.0, 0.0]], velocity=[[0.0, 0.0]], radius=0.5, mass=1.0, box=[4.0, 4.0],
+        ...           angular_velocity=[3.0])
+        >>> angmom(s).tolist()
+        [[0.0, 0.0, 0.0, 0.75]]
+    """
+    p = np.zeros((state.n, 4))
+    if state.dim == 3:
+        p[:, 1:] = 2.0 * state.inertia[:, None] * state.angular_velocity
+    else:
+        p[:, 3] = 2.0 * state.inertia * state.angular_velocity
+    return p
 
 
 def state_to_frame(state: State, totals: Totals | None = None) -> gsd.hoomd.Frame:
@@ -41,11 +68,16 @@ def state_to_frame(state: State, totals: Totals | None = None) -> gsd.hoomd.Fram
     image = np.zeros((n, 3), np.int32)
     image[:, :d] = state.image
     f.particles.image = image
+    orientation = np.zeros((n, 4))
+    orientation[:, 0] = 1.0
+    f.particles.orientation = orientation
+    f.particles.angmom = angmom(state)
     f.log["time"] = np.array([state.time], np.float64)
     f.log["configuration/box"] = state.box.astype(np.float64)
     f.log["configuration/periodic"] = state.periodic.astype(np.uint8)
     f.log["particles/angular_velocity"] = np.asarray(state.angular_velocity, np.float64)
     f.log["particles/radius"] = state.radius.astype(np.float64)
+    f.log["particles/last_collision"] = state.last_collision.astype(np.float64)  # in every frame (GSD defaults)
     if totals is not None:
         f.log["events"] = np.array([totals.events], np.int64)
         f.log["collisions"] = np.array([totals.collisions], np.int64)
@@ -83,7 +115,10 @@ def frame_to_state(frame: gsd.hoomd.Frame, check_overlaps: bool = True) -> State
     image = frame.particles.image
     image = np.zeros((n, d), np.int64) if image is None else np.asarray(image, np.int64)[:, :d]
     spin = log.get("particles/angular_velocity")
+    if spin is None and inertia is not None:
+        spin = _spin_from_angmom(frame, inertia, d)
     periodic = log.get("configuration/periodic")
+    last = log.get("particles/last_collision")
     time = float(log["time"][0]) if "time" in log else 0.0
     return State(
         position=pos,
@@ -96,8 +131,73 @@ def frame_to_state(frame: gsd.hoomd.Frame, check_overlaps: bool = True) -> State
         inertia=inertia,
         image=image,
         periodic=None if periodic is None else np.asarray(periodic, bool),
+        last_collision=None if last is None else np.asarray(last, np.float64),
         check_overlaps=check_overlaps,
     )
+
+
+def _spin_from_angmom(frame: gsd.hoomd.Frame, inertia: np.ndarray, d: int) -> np.ndarray | None:
+    """Angular velocities from HOOMD angular momenta (frames of other programs, identity orientations)."""
+    p = frame.particles.angmom
+    q = frame.particles.orientation
+    if p is None or not np.any(p):
+        return None
+    if q is not None and not np.allclose(q, [1.0, 0.0, 0.0, 0.0]):
+        raise StateError("the GSD frame has non-identity orientations: cannot convert angmom to angular velocities")
+    p = np.asarray(p, np.float64)
+    return p[:, 1:] / (2.0 * inertia[:, None]) if d == 3 else p[:, 3] / (2.0 * inertia)
+
+
+def _open_error(path, exc: Exception) -> StateError:
+    return exc if isinstance(exc, StateError) else StateError(f"cannot read a state from {path}: {exc}")
+
+
+def frame_count(path: str | os.PathLike) -> int:
+    """Number of frames in a GSD file (0 if it does not exist)."""
+    if not os.path.exists(path):
+        return 0
+    try:
+        with gsd.hoomd.open(str(path), "r") as traj:
+            return len(traj)
+    except (OSError, RuntimeError, ValueError) as exc:
+        raise _open_error(path, exc) from exc
+
+
+def iter_states(path: str | os.PathLike, start: int = 0, stop: int | None = None, step: int = 1, check_overlaps: bool = True) -> Iterator[State]:
+    """The States of frames ``start:stop:step`` of a GSD file, one at a time.
+
+    ``check_overlaps=False`` reads frames of soft particles in contact (:mod:`edmd.dem`).
+
+    Example:
+        >>> import edmd, tempfile, os
+        >>> sim = edmd.Simulation(edmd.maxwell_boltzmann(edmd.lattice(32, 0.2), 1.0))
+        >>> p = os.path.join(tempfile.mkdtemp(), "t.gsd")
+        >>> _ = sim.add(Trajectory(p, interval=0.5)); sim.run(until_time=1.0); sim.close()
+        >>> [s.time for s in iter_states(p)]
+        [0.0, 0.5, 1.0]
+    """
+    try:
+        with gsd.hoomd.open(str(path), "r") as traj:
+            for k in range(*slice(start, stop, step).indices(len(traj))):
+                yield frame_to_state(traj[k], check_overlaps)
+    except (OSError, RuntimeError, ValueError, KeyError) as exc:
+        raise _open_error(path, exc) from exc
+
+
+def truncate_frames(path: str | os.PathLike, frames: int):
+    """Keep only the first ``frames`` frames of a GSD file (rewritten atomically if longer).
+
+    Used on restart: frames written after the checkpoint by the interrupted run are dropped.
+    """
+    have = frame_count(path)
+    if have < frames:
+        raise StateError(f"{path} has {have} frames, fewer than the {frames} the checkpoint expects")
+    if have == frames:
+        return
+    with atomic_path(path) as tmp:
+        with gsd.hoomd.open(str(path), "r") as src, gsd.hoomd.open(str(tmp), "w", precision="double") as dst:
+            for k in range(frames):
+                dst.append(src[k])
 
 
 def read_state(path: str | os.PathLike, frame: int = -1, check_overlaps: bool = True) -> State:
@@ -117,11 +217,11 @@ def read_state(path: str | os.PathLike, frame: int = -1, check_overlaps: bool = 
         with gsd.hoomd.open(str(path), "r") as traj:
             if len(traj) == 0:
                 raise StateError(f"{path} holds no frames")
+            if not -len(traj) <= frame < len(traj):
+                raise StateError(f"{path} has {len(traj)} frames, there is no frame {frame}")
             return frame_to_state(traj[frame], check_overlaps)
     except (OSError, RuntimeError, ValueError, KeyError) as exc:
-        if isinstance(exc, StateError):
-            raise
-        raise StateError(f"cannot read a state from {path}: {exc}") from exc
+        raise _open_error(path, exc) from exc
 
 
 def write_state(path: str | os.PathLike, state: State, totals: Totals | None = None):
@@ -132,6 +232,10 @@ def write_state(path: str | os.PathLike, state: State, totals: Totals | None = N
 
 class Trajectory(Observer):
     """Append a GSD frame (double precision) at every interval.
+
+    The file is opened at the first frame (mode ``"w"`` truncates, ``"a"`` appends). In a
+    checkpoint it records how many frames the file holds; on restart the file is cut back to
+    that many (frames written after the checkpoint by an interrupted run are dropped).
 
     Example:
         >>> import edmd, tempfile, os, gsd.hoomd
@@ -144,13 +248,34 @@ class Trajectory(Observer):
     """
 
     def __init__(self, path: str | os.PathLike, interval: float, start: float | None = None, mode: str = "w"):
+        if mode not in ("w", "a"):
+            raise ValueError(f"mode must be 'w' or 'a', got {mode!r}")
         super().__init__(interval, start)
         self.path = str(path)
-        self._file = gsd.hoomd.open(self.path, mode, precision="double")
+        self.mode = mode
+        self._file = None
+
+    @property
+    def frames(self) -> int:
+        """Frames in the file (those of an appended-to file included)."""
+        if self._file is not None:
+            return len(self._file)
+        return frame_count(self.path) if self.mode == "a" else 0
 
     def observe(self, sim: Simulation, state: State, totals: Totals):
+        if self._file is None:
+            self._file = gsd.hoomd.open(self.path, self.mode, precision="double")
         self._file.append(state_to_frame(state, totals))
         self._file.flush()
+
+    def checkpoint_data(self) -> dict:
+        return {**super().checkpoint_data(), "frames": self.frames}
+
+    def restore_data(self, data: dict):
+        super().restore_data(data)
+        self.close()
+        truncate_frames(self.path, int(data["frames"]))
+        self.mode = "a"
 
     def close(self):
         if self._file is not None:

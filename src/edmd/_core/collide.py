@@ -1,64 +1,225 @@
-"""Instantaneous binary collision rules (physics.md §2).
+"""Instantaneous collision rules (physics.md §2, §3): one impulse law for pairs and walls.
 
-A rule acts on two particles already streamed to the common contact time. It changes their
-velocities (and spins), adds the collision virial :math:`\\mathbf r_{ij}\\cdot\\mathbf J` and the
-kinetic-energy change to the accumulators, and returns the normal and tangential impact speeds.
+A collision is a normal law (constant :math:`e_n`, or :math:`e_n(v_n)` of viscoelastic
+spheres, §2.2.2) and a tangential law (smooth, constant tangential restitution :math:`\\beta`,
+or Coulomb-limited (Walton), §2.3), optionally switched to elastic by the TC model (§3).
+The impulse on particle ``i`` (physics.md §2.3) is
+
+.. math::
+    \\mathbf J = -(1+e_n)\\,\\mu\\,\\mathbf g_n - (1+\\beta)\\,m_t\\,\\mathbf g_t,\\qquad
+    \\frac{1}{\\mu} = \\frac{1}{m_i}+\\frac{1}{m_j},\\quad
+    \\frac{1}{m_t} = \\frac{1}{\\mu} + \\frac{R_i^2}{I_i} + \\frac{R_j^2}{I_j},
+
+with :math:`\\mathbf g_c = \\mathbf v_i - \\mathbf v_j - (R_i\\boldsymbol\\omega_i + R_j\\boldsymbol\\omega_j)\\times\\hat{\\mathbf n}`.
+A flat wall is the limit :math:`m_j, I_j \\to \\infty` (§1.3). Two-dimensional disks are spheres in
+the plane with spin along :math:`z`; the 3D formulas then reduce exactly to the 2D ones of §2.3.
+
+The energy lost is booked as the exact before/after difference of the particles' kinetic
+(translational + rotational) energies for rough rules and walls, and by the closed form
+:math:`-\tfrac12\mu(1-e_n^2)g_n^2` for smooth particle pairs, so kinetic + potential +
+dissipated energy is conserved to round-off whatever the rule. ``last_collision`` (the TC
+memory) is only kept when the TC model is on.
 """
 
 import math
 
+from . import layout as L
 from .jit import hot
-
-from .layout import A_DISSIPATED, A_KE, A_VIRIAL, VX, VY, VZ, X, Y, Z
 from .predict import wrap3
-
-RULE_SMOOTH = 0
 
 
 @hot
 def contact_normal(P, i, j, geo):
     """Unit normal from ``j`` to ``i`` and the centre distance (minimum image)."""
-    dx, dy, dz = wrap3(P[i, X] - P[j, X], P[i, Y] - P[j, Y], P[i, Z] - P[j, Z], geo)
+    dx, dy, dz = wrap3(P[i, L.X] - P[j, L.X], P[i, L.Y] - P[j, L.Y], P[i, L.Z] - P[j, L.Z], geo)
     r = math.sqrt(dx * dx + dy * dy + dz * dz)
     inv = 1.0 / r
     return dx * inv, dy * inv, dz * inv, r
 
 
 @hot
-def collide_smooth(P, mass, i, j, e_n, geo, acc):
-    r"""Smooth spheres with constant normal restitution, arbitrary masses (physics.md §2.1).
+def eps_viscoelastic(delta, etab, inv_ds):
+    """Restitution :math:`\\varepsilon(\\delta)` of viscoelastic spheres from the spline table in :math:`s=\\sqrt\\delta`.
 
-    .. math::
-        \mathbf J = -(1+e_n)\,\mu\,(\mathbf g\cdot\hat{\mathbf n})\,\hat{\mathbf n},\qquad
-        \mathbf v_i' = \mathbf v_i + \mathbf J/m_i,\quad \mathbf v_j' = \mathbf v_j - \mathbf J/m_j,\qquad
-        \Delta E = -\tfrac12\mu(1-e_n^2)(\mathbf g\cdot\hat{\mathbf n})^2
+    physics.md §2.2.2 ("use in code", option 1); beyond the table's end (:math:`\\delta > 100`)
+    the last value is kept (far outside the model's validity, :math:`\\delta \\lesssim 1`).
+    """
+    x = math.sqrt(delta) * inv_ds
+    k = int(x)
+    n = etab.shape[0]
+    if k >= n:
+        k = n - 1
+        x = float(n)
+    h = (x - k) / inv_ds
+    return ((etab[k, 0] * h + etab[k, 1]) * h + etab[k, 2]) * h + etab[k, 3]
 
-    Returns the normal impact speed :math:`v_n = -\mathbf g\cdot\hat{\mathbf n}` and the
-    tangential speed :math:`v_t`. A pair that is not approaching is left untouched.
+
+@hot
+def normal_restitution(law, e_const, vn, mu_red, r_eff, fp, etab):
+    r"""Normal restitution of an impact at normal speed ``vn``.
+
+    Viscoelastic (physics.md §2.2.2): :math:`\rho = \frac{2Y\sqrt{R_{\rm eff}}}{3(1-\nu^2)}`,
+    :math:`\beta_v = \tfrac32 A(\rho/\mu)^{2/5}`, :math:`e_n = \varepsilon(\beta_v v_n^{1/5})`.
+    """
+    if law == L.NORMAL_CONST:
+        return e_const
+    rho = fp[L.FP_VISCO_K] * math.sqrt(r_eff)
+    delta = 1.5 * fp[L.FP_VISCO_A] * (rho / mu_red) ** 0.4 * vn**0.2
+    return eps_viscoelastic(delta, etab, fp[L.FP_ETAB_INV])
+
+
+@hot
+def impulse(nx, ny, nz, gx, gy, gz, wx, wy, wz, inv_mu, inv_mt, e, beta, mu_c, tangent):
+    """Impulse on ``i`` for relative centre velocity ``g`` and summed spins ``w = R_i w_i + R_j w_j``.
+
+    Returns ``(Jx, Jy, Jz, v_n, v_t)`` with the normal impact speed ``v_n = -g.n`` and the
+    tangential speed of the contact point ``v_t`` (physics.md §2.3, Coulomb variant included).
+    """
+    gn = gx * nx + gy * ny + gz * nz
+    jn = -(1.0 + e) * gn / inv_mu
+    if tangent == L.TANGENT_SMOOTH:
+        tx, ty, tz = gx - gn * nx, gy - gn * ny, gz - gn * nz
+        return jn * nx, jn * ny, jn * nz, -gn, math.sqrt(tx * tx + ty * ty + tz * tz)
+    cx = gx - (wy * nz - wz * ny)
+    cy = gy - (wz * nx - wx * nz)
+    cz = gz - (wx * ny - wy * nx)
+    tx, ty, tz = cx - gn * nx, cy - gn * ny, cz - gn * nz
+    vt = math.sqrt(tx * tx + ty * ty + tz * tz)
+    b = beta
+    if tangent == L.TANGENT_COULOMB and vt > 0.0:
+        b = min(beta, -1.0 + mu_c * (1.0 + e) * (inv_mt / inv_mu) * (-gn) / vt)
+    k = -(1.0 + b) / inv_mt
+    return jn * nx + k * tx, jn * ny + k * ty, jn * nz + k * tz, -gn, vt
+
+
+@hot
+def _energy(P, mass, omega, inertia, i, spin):
+    e = mass[i] * (P[i, L.VX] ** 2 + P[i, L.VY] ** 2 + P[i, L.VZ] ** 2)
+    if spin:
+        e += inertia[i] * (omega[i, 0] ** 2 + omega[i, 1] ** 2 + omega[i, 2] ** 2)
+    return 0.5 * e
+
+
+@hot
+def _kick(P, omega, i, jx, jy, jz, nx, ny, nz, dv, r_over_i, spin):
+    """Velocity change ``dv * J`` and spin change ``-(R/I) n x J`` (the same for both partners:
+    ``i`` takes ``J`` at ``-R_i n``, ``j`` takes ``-J`` at ``+R_j n``)."""
+    P[i, L.VX] += jx * dv
+    P[i, L.VY] += jy * dv
+    P[i, L.VZ] += jz * dv
+    if spin:
+        omega[i, 0] -= r_over_i * (ny * jz - nz * jy)
+        omega[i, 1] -= r_over_i * (nz * jx - nx * jz)
+        omega[i, 2] -= r_over_i * (nx * jy - ny * jx)
+
+
+@hot
+def _tc_elastic(t, tlast, i, j, fp, ip):
+    """TC model (physics.md §3): elastic if either partner collided less than ``t_TC`` ago (``j < 0``: a wall)."""
+    if ip[L.IP_TC] == 0:
+        return False
+    tc = fp[L.FP_TC]
+    return t - tlast[i] < tc or (j >= 0 and t - tlast[j] < tc)
+
+
+@hot
+def collide_pair(t, P, mass, omega, inertia, tlast, i, j, geo, fp, ip, etab, acc, cnt):
+    """Collide ``i`` and ``j`` (streamed to the contact time ``t``). Returns ``(v_n, v_t)``.
+
+    Adds :math:`\\mathbf r_{ij}\\cdot\\mathbf J` to the virial, the kinetic-energy change to
+    ``acc[A_KE]`` (translational) and the energy lost to ``acc[A_DISSIPATED]``.
     """
     nx, ny, nz, r = contact_normal(P, i, j, geo)
-    gx = P[i, VX] - P[j, VX]
-    gy = P[i, VY] - P[j, VY]
-    gz = P[i, VZ] - P[j, VZ]
+    tangent = ip[L.IP_TANGENT]
+    spin = tangent != L.TANGENT_SMOOTH
+    gx = P[i, L.VX] - P[j, L.VX]
+    gy = P[i, L.VY] - P[j, L.VY]
+    gz = P[i, L.VZ] - P[j, L.VZ]
     gn = gx * nx + gy * ny + gz * nz
-    g2 = gx * gx + gy * gy + gz * gz
-    vt = math.sqrt(max(g2 - gn * gn, 0.0))
     if gn >= 0.0:
-        return 0.0, vt
-    mi = mass[i]
-    mj = mass[j]
-    mu = mi * mj / (mi + mj)
-    jn = -(1.0 + e_n) * mu * gn
-    ai = jn / mi
-    aj = jn / mj
-    P[i, VX] += ai * nx
-    P[i, VY] += ai * ny
-    P[i, VZ] += ai * nz
-    P[j, VX] -= aj * nx
-    P[j, VY] -= aj * ny
-    P[j, VZ] -= aj * nz
-    acc[A_VIRIAL] += r * jn
-    de = -0.5 * mu * (1.0 - e_n * e_n) * gn * gn
-    acc[A_KE] += de
-    acc[A_DISSIPATED] -= de
-    return -gn, vt
+        return 0.0, 0.0
+    mi, mj = mass[i], mass[j]
+    ri, rj = P[i, L.R], P[j, L.R]
+    inv_mu = 1.0 / mi + 1.0 / mj
+    inv_mt = inv_mu
+    wx = wy = wz = 0.0
+    if spin:
+        inv_mt += ri * ri / inertia[i] + rj * rj / inertia[j]
+        wx = ri * omega[i, 0] + rj * omega[j, 0]
+        wy = ri * omega[i, 1] + rj * omega[j, 1]
+        wz = ri * omega[i, 2] + rj * omega[j, 2]
+    beta = fp[L.FP_BETA]
+    if _tc_elastic(t, tlast, i, j, fp, ip):
+        e = 1.0
+        beta = -1.0
+        cnt[L.C_TC_ELASTIC] += 1
+    else:
+        e = normal_restitution(ip[L.IP_NORMAL], fp[L.FP_EN], -gn, 1.0 / inv_mu, ri * rj / (ri + rj), fp, etab)
+    jx, jy, jz, vn, vt = impulse(nx, ny, nz, gx, gy, gz, wx, wy, wz, inv_mu, inv_mt, e, beta, fp[L.FP_MU], tangent)
+    if spin:
+        k0 = _energy(P, mass, omega, inertia, i, False) + _energy(P, mass, omega, inertia, j, False)
+        e0 = _energy(P, mass, omega, inertia, i, True) + _energy(P, mass, omega, inertia, j, True)
+    _kick(P, omega, i, jx, jy, jz, nx, ny, nz, 1.0 / mi, ri / inertia[i], spin)
+    _kick(P, omega, j, jx, jy, jz, nx, ny, nz, -1.0 / mj, rj / inertia[j], spin)
+    if spin:
+        dk = _energy(P, mass, omega, inertia, i, False) + _energy(P, mass, omega, inertia, j, False) - k0
+        lost = e0 - _energy(P, mass, omega, inertia, i, True) - _energy(P, mass, omega, inertia, j, True)
+    else:  # smooth: physics.md §2.1, Delta E = -mu (1 - e^2) g_n^2 / 2, spins untouched
+        dk = -0.5 * (1.0 - e * e) * gn * gn / inv_mu
+        lost = -dk
+    acc[L.A_VIRIAL] += r * (jx * nx + jy * ny + jz * nz)
+    acc[L.A_KE] += dk
+    acc[L.A_DISSIPATED] += lost
+    if ip[L.IP_TC]:
+        tlast[i] = t
+        tlast[j] = t
+    return vn, vt
+
+
+@hot
+def collide_wall(t, P, mass, omega, inertia, tlast, i, axis, face, fp, ip, etab, acc):
+    """Bounce ``i`` (streamed to the contact time ``t``) off the wall ``face`` (0 lower, 1 upper) of ``axis``.
+
+    The wall is a particle of infinite mass and moment of inertia at rest (physics.md §1.3);
+    its own normal/tangential laws and TC rule apply. The normal momentum it takes is added
+    to ``acc[A_WALL + 2 * axis + face]`` (wall pressure) and the momentum change to ``acc[A_P*]``.
+    """
+    nx = ny = nz = 0.0
+    sign = 1.0 if face == 0 else -1.0
+    if axis == 0:
+        nx = sign
+    elif axis == 1:
+        ny = sign
+    else:
+        nz = sign
+    gx, gy, gz = P[i, L.VX], P[i, L.VY], P[i, L.VZ]
+    gn = gx * nx + gy * ny + gz * nz
+    if gn >= 0.0:
+        return
+    tangent = ip[L.IP_WALL_TANGENT]
+    spin = tangent != L.TANGENT_SMOOTH
+    mi, ri = mass[i], P[i, L.R]
+    inv_mu = 1.0 / mi
+    inv_mt = inv_mu + ri * ri / inertia[i] if spin else inv_mu
+    beta = fp[L.FP_WALL_BETA]
+    if _tc_elastic(t, tlast, i, -1, fp, ip):
+        e = 1.0
+        beta = -1.0
+    else:
+        e = normal_restitution(ip[L.IP_WALL_NORMAL], fp[L.FP_WALL_EN], -gn, mi, ri, fp, etab)
+    jx, jy, jz, vn, vt = impulse(
+        nx, ny, nz, gx, gy, gz, ri * omega[i, 0], ri * omega[i, 1], ri * omega[i, 2],
+        inv_mu, inv_mt, e, beta, fp[L.FP_WALL_MU], tangent,
+    )  # fmt: skip
+    k0 = _energy(P, mass, omega, inertia, i, False)
+    e0 = _energy(P, mass, omega, inertia, i, spin)
+    _kick(P, omega, i, jx, jy, jz, nx, ny, nz, 1.0 / mi, ri / inertia[i], spin)
+    e1 = _energy(P, mass, omega, inertia, i, spin)
+    acc[L.A_KE] += _energy(P, mass, omega, inertia, i, False) - k0
+    acc[L.A_DISSIPATED] += e0 - e1
+    acc[L.A_PX] += jx
+    acc[L.A_PY] += jy
+    acc[L.A_PZ] += jz
+    acc[L.A_WALL + 2 * axis + face] += jx * nx + jy * ny + jz * nz
+    if ip[L.IP_TC]:
+        tlast[i] = t

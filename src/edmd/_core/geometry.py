@@ -4,7 +4,7 @@ import numpy as np
 from .jit import jit_alloc
 
 from .cells import cell_block, cell_insert, cell_of_point
-from .predict import wrap3
+from .predict import INF, wrap3
 
 
 @jit_alloc
@@ -70,7 +70,8 @@ def random_insert(radius, geo, grid, pos, uniforms, start, dim):
         ok = False
         for a in range(u.shape[0]):
             for k in range(3):
-                pos[p, k] = (u[a, k] - 0.5) * geo[k] if k < dim else 0.0
+                span = geo[k] if geo[3 + k] < INF else geo[k] - 2.0 * radius[p]  # walls: stay inside
+                pos[p, k] = (u[a, k] - 0.5) * span if k < dim else 0.0
             c = cell_of_point(pos[p, 0], pos[p, 1], pos[p, 2], geo, grid)
             grid[2][p] = c
             ok = True
@@ -115,6 +116,18 @@ def relax_overlaps(pos, radius, geo, grid, inflate, step, max_iter, dim):
         ii, jj, d = close_pairs(pos, radius, geo, grid, inflate)
         push[:] = 0.0
         worst = 0.0
+        for i in range(n):  # walls close the non-periodic axes
+            ri = inflate * radius[i]
+            for k in range(dim):
+                if geo[3 + k] == INF:
+                    lo = -0.5 * geo[k] + ri - pos[i, k]
+                    hi = pos[i, k] - (0.5 * geo[k] - ri)
+                    if lo > 0.0:
+                        push[i, k] += lo / step
+                        worst = max(worst, lo / (2.0 * ri))
+                    elif hi > 0.0:
+                        push[i, k] -= hi / step
+                        worst = max(worst, hi / (2.0 * ri))
         for k in range(ii.shape[0]):
             sig = inflate * (radius[ii[k]] + radius[jj[k]])
             r = max(d[k, 3], 1e-6 * sig)

@@ -13,7 +13,7 @@ ROW = 8
 AUX_NONE = 0
 AUX_SHELL = 1  # particle leaves the shell of its neighbour list
 AUX_CELL = 2  # cell crossing: AUX_CELL + 2 * axis + (0 lower face, 1 upper face)
-AUX_WALL = 8  # hard wall w: AUX_WALL + w
+AUX_WALL = 8  # hard wall: AUX_WALL + 2 * axis + (0 lower wall, 1 upper wall)
 AUX_B = 64  # eMD* type-B event
 
 # neighbour structure
@@ -30,20 +30,72 @@ ST_STALL = 5  # too many events at one instant (inelastic collapse / Zeno)
 ST_OVERLAP = 6  # debug mode found an overlap or a contact away from sigma
 
 # integer counters (cnt array)
-C_EVENTS, C_COLL, C_STALE, C_AUX, C_REBUILD, C_WALL, C_LOG, C_ZENO_RUN, C_BAD_I, C_BAD_J = range(10)
+(
+    C_EVENTS,  # events processed
+    C_COLL,  # binary collisions
+    C_STALE,  # stale pair events re-predicted
+    C_AUX,  # single-particle events
+    C_REBUILD,  # neighbour-list rebuilds
+    C_WALL,  # wall collisions
+    C_LOG,  # rows in the collision log buffer
+    C_ZENO_RUN,  # consecutive events without the clock advancing
+    C_BAD_I,  # debug: offending pair
+    C_BAD_J,
+    C_TC_ELASTIC,  # collisions made elastic by the TC model
+) = range(11)
 N_COUNTERS = 16
 
 # float accumulators (acc array)
-A_VIRIAL, A_DISSIPATED, A_KE, A_KE_INT, A_LAST_T, A_WALL_IMPULSE, A_NOW, A_BAD = range(8)
+(
+    A_VIRIAL,  # sum of r_ij . J over collisions
+    A_DISSIPATED,  # kinetic (translational + rotational) energy lost in collisions
+    A_KE,  # current translational kinetic energy (for the time integral)
+    A_KE_INT,  # time integral of the translational kinetic energy (local time)
+    A_LAST_T,  # local time up to which A_KE_INT is integrated
+    A_PX,  # total momentum (changes only at walls)
+    A_PY,
+    A_PZ,
+    A_NOW,  # time of the last processed event (local)
+    A_BAD,  # debug: relative contact error
+) = range(10)
+A_WALL = 10  # A_WALL + 2 * axis + face: normal momentum given to each wall (face 0 lower, 1 upper)
 N_ACC = 16
 
 # integer parameters (ip array)
-IP_MODE, IP_RULE, IP_LOG_CAP, IP_MAXSTALL, IP_DEBUG = range(5)
-N_IP = 8
+(
+    IP_MODE,  # neighbour structure
+    IP_LOG_CAP,  # collision log capacity (0: off)
+    IP_MAXSTALL,  # events allowed without the clock advancing
+    IP_DEBUG,
+    IP_NORMAL,  # normal law of particle collisions (NORMAL_*)
+    IP_TANGENT,  # tangential law of particle collisions (TANGENT_*)
+    IP_TC,  # TC model on
+    IP_WALL_NORMAL,  # laws for wall collisions
+    IP_WALL_TANGENT,
+    IP_WALLS,  # bit k set: axis k is closed by walls
+) = range(10)
+N_IP = 16
 
 # float parameters (fp array)
-FP_SKIN, FP_EN, FP_DEBUG_TOL = 0, 1, 2
+(
+    FP_SKIN,  # neighbour-list skin
+    FP_DEBUG_TOL,
+    FP_EN,  # constant normal restitution
+    FP_BETA,  # tangential restitution (beta = -e_t)
+    FP_MU,  # Coulomb friction coefficient (TANGENT_COULOMB)
+    FP_TC,  # TC model duration
+    FP_VISCO_K,  # viscoelastic: rho = K sqrt(R_eff), K = 2Y / (3 (1 - nu^2))
+    FP_VISCO_A,  # viscoelastic dissipative time constant A
+    FP_ETAB_INV,  # 1 / grid step of the eps(s = sqrt(delta)) table
+    FP_WALL_EN,
+    FP_WALL_BETA,
+    FP_WALL_MU,
+    FP_MTOT,  # total mass
+) = range(13)
 N_FP = 16
+
+NORMAL_CONST, NORMAL_VISCO = 0, 1
+TANGENT_SMOOTH, TANGENT_BETA, TANGENT_COULOMB = 0, 1, 2
 
 # geometry scalars passed to the compiled core as one tuple of floats (no array references
 # travel into hot helpers): box lengths, minimum-image half lengths (inf on open axes),

@@ -22,9 +22,9 @@ from .jit import hot, jit
 
 from . import layout as L
 from .cells import cell_block, cell_insert, cell_of_point, cell_remove, crossing_time
-from .collide import collide_smooth
+from .collide import collide_pair, collide_wall
 from .nblist import build_lists, rebuild_list, shell_exit_time
-from .predict import INF, advance, contact_time, flight, relative_to, separation
+from .predict import INF, advance, contact_time, flight, gap_time, relative_to, separation
 from .queue import queue_top, queue_update
 
 
@@ -104,13 +104,35 @@ def _crossing_event(i, t, P, ev, grid, geo):
 
 
 @hot
-def predict_aux(i, t, P, ev, grid, lists, geo, mode, fp):
-    """Earliest single-particle event of ``i``: shell exit (lists) or cell crossing (cells)."""
+def _wall_event(i, t, P, geo, walls, best, kind):
+    """Improve ``(best, kind)`` with the earliest wall contact of ``i`` (physics.md §1.3)."""
+    xs = flight(P, i, t, geo)
+    r = P[i, L.R]
+    for k in range(3):
+        if walls & (1 << k):
+            x, v, g, half = xs[k], xs[3 + k], geo[L.G_GX + k], 0.5 * geo[k]
+            tk = gap_time(x + half - r, v, g)
+            if tk < best:
+                best, kind = tk, L.AUX_WALL + 2 * k
+            tk = gap_time(half - x - r, -v, -g)
+            if tk < best:
+                best, kind = tk, L.AUX_WALL + 2 * k + 1
+    return best, kind
+
+
+@hot
+def predict_aux(i, t, P, ev, grid, lists, geo, mode, fp, ip):
+    """Earliest single-particle event of ``i``: shell exit (lists) or cell crossing (cells), or a wall."""
     if mode == L.NB_LIST:
         ev[3][i] = shell_exit_time(P, i, t, lists, geo, fp[L.FP_SKIN])
         ev[4][i] = L.AUX_SHELL
     else:
         _crossing_event(i, t, P, ev, grid, geo)
+    walls = ip[L.IP_WALLS]
+    if walls:
+        best, kind = _wall_event(i, t, P, geo, walls, ev[3][i] - t, ev[4][i])
+        ev[3][i] = t + best
+        ev[4][i] = kind
 
 
 @hot
@@ -159,10 +181,10 @@ def _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf):
 
 
 @hot
-def _repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, cbuf):
+def _repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf):
     """Both candidate events of ``i`` after its flight changed, and its calendar key."""
     predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
-    predict_aux(i, t, P, ev, grid, lists, geo, mode, fp)
+    predict_aux(i, t, P, ev, grid, lists, geo, mode, fp, ip)
     _requeue(q, ev, i)
 
 
@@ -209,19 +231,36 @@ def _wrap_into_box(P, image, i, geo):
                 image[i, k] -= 1
 
 
+@hot
+def integrate_kinetic(acc, t, geo, total_mass):
+    r"""Advance the time integral of the translational kinetic energy to ``t``.
+
+    Between events the total momentum only feels gravity, :math:`\mathbf P(\tau) = \mathbf P_0 + M\mathbf G\tau`,
+    so :math:`E(\tau) = E_0 + \mathbf G\cdot\mathbf P_0\,\tau + \tfrac12 M G^2\tau^2` is integrated exactly.
+    """
+    tau = t - acc[L.A_LAST_T]
+    gp = geo[L.G_GX] * acc[L.A_PX] + geo[L.G_GY] * acc[L.A_PY] + geo[L.G_GZ] * acc[L.A_PZ]
+    mg2 = total_mass * (geo[L.G_GX] ** 2 + geo[L.G_GY] ** 2 + geo[L.G_GZ] ** 2)
+    acc[L.A_KE_INT] += acc[L.A_KE] * tau + 0.5 * gp * tau * tau + mg2 * tau * tau * tau / 6.0
+    acc[L.A_KE] += gp * tau + 0.5 * mg2 * tau * tau
+    for k in range(3):
+        acc[L.A_PX + k] += total_mass * geo[L.G_GX + k] * tau
+    acc[L.A_LAST_T] = t
+
+
 @jit
-def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, t_stop, max_events):
+def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, etab, t_stop, max_events):
     """Process events in time order until ``t_stop`` (exclusive) or ``max_events``.
 
     Returns a status code of :mod:`.layout` (``ST_*``); ``acc[A_NOW]`` holds the time of the
     last processed event. The state is consistent at every return. ``cbuf`` is an int32 scratch
     array of 27 cells (the loop allocates nothing).
     """
-    P, mass, omega, inertia, image, count = part
+    P, mass, omega, inertia, image, count, tlast = part
     key = q[0]
     mode = ip[L.IP_MODE]
     log_cap = ip[L.IP_LOG_CAP]
-    e_n = fp[L.FP_EN]
+    total_mass = fp[L.FP_MTOT]
     done = 0
     while True:
         i = queue_top(q)
@@ -232,12 +271,26 @@ def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, t_st
             return L.ST_TIME
         if done >= max_events:
             return L.ST_EVENTS
+        if t > acc[L.A_NOW]:
+            cnt[L.C_ZENO_RUN] = 0
+        else:
+            cnt[L.C_ZENO_RUN] += 1
+            if cnt[L.C_ZENO_RUN] > ip[L.IP_MAXSTALL]:
+                return L.ST_STALL
         done += 1
         cnt[L.C_EVENTS] += 1
         acc[L.A_NOW] = t
         if ev[3][i] <= ev[0][i]:
             kind = ev[4][i]
             cnt[L.C_AUX] += 1
+            if kind >= L.AUX_WALL:
+                advance(P, i, t, geo)
+                integrate_kinetic(acc, t, geo, total_mass)
+                collide_wall(t, P, mass, omega, inertia, tlast, i, (kind - L.AUX_WALL) >> 1, (kind - L.AUX_WALL) & 1, fp, ip, etab, acc)
+                count[i] += 1
+                cnt[L.C_WALL] += 1
+                _repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf)
+                continue
             if kind == L.AUX_SHELL:
                 advance(P, i, t, geo)
                 _wrap_into_box(P, image, i, geo)
@@ -247,7 +300,7 @@ def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, t_st
                 predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
             else:
                 _cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf)
-            predict_aux(i, t, P, ev, grid, lists, geo, mode, fp)
+            predict_aux(i, t, P, ev, grid, lists, geo, mode, fp, ip)
             _requeue(q, ev, i)
             continue
         j = ev[1][i]
@@ -263,9 +316,8 @@ def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, t_st
             return L.ST_OVERLAP
         advance(P, i, t, geo)
         advance(P, j, t, geo)
-        acc[L.A_KE_INT] += acc[L.A_KE] * (t - acc[L.A_LAST_T])
-        acc[L.A_LAST_T] = t
-        vn, vt = collide_smooth(P, mass, i, j, e_n, geo, acc)
+        integrate_kinetic(acc, t, geo, total_mass)
+        vn, vt = collide_pair(t, P, mass, omega, inertia, tlast, i, j, geo, fp, ip, etab, acc, cnt)
         count[i] += 1
         count[j] += 1
         cnt[L.C_COLL] += 1
@@ -277,8 +329,8 @@ def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, t_st
             clog[r, 3] = vn
             clog[r, 4] = vt
             cnt[L.C_LOG] = r + 1
-        _repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, cbuf)
-        _repredict(j, t, P, count, ev, q, grid, lists, geo, mode, fp, cbuf)
+        _repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf)
+        _repredict(j, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf)
 
 
 @jit
@@ -287,7 +339,7 @@ def setup_events(part, ev, grid, lists, geo, fp, ip, cbuf, t):
 
     Returns ``False`` if a neighbour list ran out of capacity.
     """
-    P, mass, omega, inertia, image, count = part
+    P, mass, omega, inertia, image, count, tlast = part
     mode = ip[L.IP_MODE]
     n = P.shape[0]
     if mode == L.NB_LIST:
@@ -299,5 +351,5 @@ def setup_events(part, ev, grid, lists, geo, fp, ip, cbuf, t):
             cell_insert(grid, i, cell_of_point(P[i, L.X], P[i, L.Y], P[i, L.Z], geo, grid))
     for i in range(n):
         predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
-        predict_aux(i, t, P, ev, grid, lists, geo, mode, fp)
+        predict_aux(i, t, P, ev, grid, lists, geo, mode, fp, ip)
     return True

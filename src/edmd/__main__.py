@@ -1,0 +1,5 @@
+"""``python -m edmd`` is the ``edmd`` command."""
+
+from .cli import app
+
+app()

@@ -1,0 +1,86 @@
+"""Shared helpers of the analysis classes: inputs, reference functions, axes."""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Iterable
+
+from ..state import State, StateError
+
+
+def as_states(system) -> list[State]:
+    """One State, an iterable of States, or a GSD file (every frame) as a list of States."""
+    if isinstance(system, State):
+        return [system]
+    if isinstance(system, (str, os.PathLike)):
+        from ..trajectory import iter_states
+
+        states = list(iter_states(system, check_overlaps=False))
+    elif isinstance(system, Iterable):
+        states = list(system)
+    else:
+        raise TypeError(f"expected a State, States or a GSD file, got {type(system).__name__}")
+    if not states:
+        raise StateError("no frames to analyse")
+    bad = [type(s).__name__ for s in states if not isinstance(s, State)]
+    if bad:
+        raise TypeError(f"expected States, got {bad[0]}")
+    return states
+
+
+def contact_value(eta: float, dim: int) -> float:
+    r"""Contact value :math:`\chi` of the pair correlation: Carnahan–Starling (3D), Henderson (2D).
+
+    physics.md §5.2: :math:`\chi_{3D}=\frac{1-\eta/2}{(1-\eta)^3}`,
+    :math:`\chi_{2D}=\frac{1-7\eta/16}{(1-\eta)^2}`.
+
+    Example:
+        >>> round(contact_value(0.3, 3), 6), round(contact_value(0.5, 2), 6)
+        (2.478134, 3.125)
+    """
+    if not 0 <= eta < 1:
+        raise ValueError(f"packing fraction must be in [0, 1), got {eta}")
+    if dim == 3:
+        return (1 - eta / 2) / (1 - eta) ** 3
+    if dim == 2:
+        return (1 - 7 * eta / 16) / (1 - eta) ** 2
+    raise ValueError(f"dim must be 2 or 3, got {dim}")
+
+
+def compressibility_factor(eta: float, dim: int, g_contact: float | None = None) -> float:
+    r"""Hard-sphere equation of state :math:`Z = P/(nT) = 1 + 2^{d-1}\eta\,g(\sigma^+)` (physics.md §5.2).
+
+    ``g_contact`` defaults to :func:`contact_value` (Carnahan–Starling / Henderson).
+
+    Example:
+        >>> round(compressibility_factor(0.3, 3), 6)
+        3.973761
+    """
+    g = contact_value(eta, dim) if g_contact is None else g_contact
+    return 1.0 + 2 ** (dim - 1) * eta * g
+
+
+def axes(ax=None, figsize=(5.0, 3.8)):
+    """``ax``, or the Axes of a new Agg-rendered Figure (no pyplot state involved)."""
+    if ax is not None:
+        return ax
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=figsize, layout="constrained")
+    return fig.add_subplot()
+
+
+def maxwell_speed_pdf(c, dim: int):
+    r"""Maxwell distribution of the reduced speed :math:`c = |\mathbf v - \mathbf u|\sqrt{m/T}`.
+
+    .. math:: f(c) = \frac{c^{d-1} e^{-c^2/2}}{2^{d/2-1}\,\Gamma(d/2)}
+
+    Example:
+        >>> round(float(maxwell_speed_pdf(1.0, 2)), 6)
+        0.606531
+    """
+    import numpy as np
+
+    c = np.asarray(c, float)
+    return c ** (dim - 1) * np.exp(-0.5 * c * c) / (2 ** (dim / 2 - 1) * math.gamma(dim / 2))

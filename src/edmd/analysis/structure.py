@@ -1,0 +1,187 @@
+"""Radial distribution function g(r) (own compiled pair histogram; freud optional) and contact values."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ..state import State
+from ._common import as_states, axes
+
+
+@njit(cache=True)
+def _axis_cells(x, length, n, periodic):
+    c = int(math.floor((x + 0.5 * length) / length * n))
+    if c < 0:
+        return n - 1 if periodic else 0
+    if c >= n:
+        return 0 if periodic else n - 1
+    return c
+
+
+@njit(cache=True)
+def _neighbour_cells(c, n, periodic, out):
+    """Distinct neighbour cell indices of ``c`` along one axis; returns how many."""
+    if periodic and n < 3:
+        for k in range(n):
+            out[k] = k
+        return n
+    m = 0
+    for o in range(-1, 2):
+        k = c + o
+        if periodic:
+            k %= n
+        elif k < 0 or k >= n:
+            continue
+        out[m] = k
+        m += 1
+    return m
+
+
+@njit(cache=True)
+def pair_histogram(points, box, periodic, r_max, nbins):
+    """Counts of unordered pairs by distance in ``nbins`` equal bins on ``[0, r_max)``.
+
+    Minimum image on periodic axes; a cell list with cells of edge ``>= r_max`` (all cells of an
+    axis with fewer than 3 of them), so the cost is :math:`O(N)` per frame.
+    """
+    n = points.shape[0]
+    nc = np.empty(3, np.int64)
+    for k in range(3):
+        nc[k] = max(1, int(box[k] // r_max))
+    head = np.full(nc[0] * nc[1] * nc[2], -1, np.int64)
+    nxt = np.empty(n, np.int64)
+    cell = np.empty((n, 3), np.int64)
+    for i in range(n):
+        for k in range(3):
+            cell[i, k] = _axis_cells(points[i, k], box[k], nc[k], periodic[k])
+        c = (cell[i, 0] * nc[1] + cell[i, 1]) * nc[2] + cell[i, 2]
+        nxt[i] = head[c]
+        head[c] = i
+    counts = np.zeros(nbins, np.int64)
+    nb = np.empty((3, 3), np.int64)
+    m = np.empty(3, np.int64)
+    scale = nbins / r_max
+    r2max = r_max * r_max
+    for i in range(n):
+        for k in range(3):
+            m[k] = _neighbour_cells(cell[i, k], nc[k], periodic[k], nb[k])
+        for a in range(m[0]):
+            for b in range(m[1]):
+                for cc in range(m[2]):
+                    j = head[(nb[0, a] * nc[1] + nb[1, b]) * nc[2] + nb[2, cc]]
+                    while j >= 0:
+                        if j > i:
+                            r2 = 0.0
+                            for k in range(3):
+                                d = points[i, k] - points[j, k]
+                                if periodic[k]:
+                                    d -= box[k] * np.rint(d / box[k])
+                                r2 += d * d
+                            if r2 < r2max:
+                                counts[min(int(math.sqrt(r2) * scale), nbins - 1)] += 1
+                        j = nxt[j]
+    return counts
+
+
+def _shell_volumes(edges, dim):
+    if dim == 3:
+        return 4.0 / 3.0 * math.pi * np.diff(edges**3)
+    return math.pi * np.diff(edges**2)
+
+
+class RDF:
+    r"""Radial distribution function :math:`g(r)`, averaged over frames.
+
+    For each frame, with :math:`h_k` the number of unordered pairs in the shell
+    :math:`[r_k, r_{k+1})` (minimum image) and :math:`V_k` the shell volume (area in 2D),
+
+    .. math:: g(r_k) = \frac{2 h_k}{N\,\frac{N-1}{V}\,V_k}
+
+    so uncorrelated points give :math:`g = 1` exactly on average. In a box with closed axes
+    (walls) the normalisation is the bulk one and :math:`g` is biased low at large :math:`r`.
+
+    Args:
+        bins: number of bins.
+        r_max: largest distance (default: half the shortest periodic box length); must not
+            exceed that half length (the minimum image would be ambiguous).
+
+    Attributes:
+        bin_edges, bin_centers: the bins.
+        rdf: :math:`g(r)` at the bin centres.
+        frames: number of frames averaged.
+
+    Example:
+        >>> import edmd
+        >>> s = edmd.lattice(500, 0.3)
+        >>> g = RDF(bins=50, r_max=2.0).compute(s)
+        >>> float(g.rdf[g.bin_centers < 0.99].max())   # no pairs closer than a diameter
+        0.0
+    """
+
+    def __init__(self, bins: int = 100, r_max: float | None = None):
+        if bins < 1 or (r_max is not None and not r_max > 0):
+            raise ValueError(f"need bins >= 1 and r_max > 0, got bins={bins}, r_max={r_max}")
+        self.bins = int(bins)
+        self.r_max = r_max
+        self.frames = 0
+
+    def _limit(self, state: State) -> float:
+        periodic = state.box[state.periodic]
+        half = 0.5 * float(periodic.min()) if periodic.size else math.inf
+        r_max = self.r_max if self.r_max is not None else half
+        if not math.isfinite(r_max):
+            raise ValueError("give r_max for a box without periodic axes")
+        if r_max > half * (1 + 1e-12):
+            raise ValueError(f"r_max = {r_max} exceeds half the shortest periodic box length ({half})")
+        return float(r_max)
+
+    def compute(self, system, reset: bool = True) -> RDF:
+        """Accumulate :math:`g(r)` over one State, several States or a GSD file; returns ``self``.
+
+        With ``reset=False`` the frames are added to those of earlier calls.
+        """
+        states = as_states(system)
+        r_max = self._limit(states[0])
+        if reset or self.frames == 0:
+            self.frames = 0
+            self._sum = np.zeros(self.bins)
+            self.bin_edges = np.linspace(0.0, r_max, self.bins + 1)
+        elif r_max != self.bin_edges[-1]:
+            raise ValueError("frames with a different r_max cannot be accumulated")
+        self.bin_centers = 0.5 * (self.bin_edges[1:] + self.bin_edges[:-1])
+        shells = _shell_volumes(self.bin_edges, states[0].dim)
+        for s in states:
+            box, _ = s.geometry()
+            periodic = np.zeros(3, np.bool_)
+            periodic[: s.dim] = s.periodic
+            counts = pair_histogram(s.points, box, periodic, r_max, self.bins)
+            self._sum += 2.0 * counts / (s.n * (s.n - 1) / s.volume * shells)
+            self.frames += 1
+        self.rdf = self._sum / self.frames
+        return self
+
+    def contact_value(self, sigma: float, width: float | None = None, order: int = 2) -> float:
+        r"""Contact value :math:`g(\sigma^+)` by extrapolating a polynomial fit to :math:`r = \sigma`.
+
+        The fit uses the bins lying entirely in :math:`[\sigma, \sigma + w]` (default
+        :math:`w = 0.15\sigma`); it needs ``order + 2`` of them at least.
+        """
+        width = 0.15 * sigma if width is None else width
+        left, right = self.bin_edges[:-1], self.bin_edges[1:]
+        use = (left >= sigma * (1 - 1e-12)) & (right <= sigma + width * (1 + 1e-12))
+        if use.sum() < order + 2:
+            raise ValueError(f"only {int(use.sum())} bins lie in [sigma, sigma + {width:g}]: use finer bins or a wider window")
+        coef = np.polyfit(self.bin_centers[use] - sigma, self.rdf[use], order)
+        return float(coef[-1])
+
+    def plot(self, ax=None):
+        """g(r) with the ideal-gas line g = 1; returns the Axes."""
+        ax = axes(ax)
+        ax.plot(self.bin_centers, self.rdf, "-", label="g(r)")
+        ax.axhline(1.0, color="0.6", lw=0.8, ls=":")
+        ax.set_xlabel("r")
+        ax.set_ylabel("g(r)")
+        return ax

@@ -1,0 +1,69 @@
+"""The layout of a sweep directory and atomic writes (an interrupted sweep never leaves half a file).
+
+::
+
+    OUT/
+      sweep.json            the sweep (base inlined) and its point ids in order
+      results.csv           one row per point (and results.parquet with pyarrow)
+      points/<id>/          one directory per point, <id> = hash of its resolved config
+        config.toml         the fully resolved configuration (``edmd run`` on it gives the same run)
+        point.json          the point's index and swept parameters
+        status.json         {"status": "running" | "done" | "failed", "error", "elapsed_seconds", ...}
+        error.txt           the traceback of a failed point
+        thermo.csv, trajectory.gsd, summary.json   as written by ``edmd run``
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import threading
+from pathlib import Path
+from typing import Any
+
+MANIFEST = "sweep.json"
+POINTS = "points"
+CONFIG = "config.toml"
+POINT = "point.json"
+STATUS = "status.json"
+ERROR = "error.txt"
+SUMMARY = "summary.json"
+THERMO = "thermo.csv"
+TABLE = "results"
+
+
+def point_dir(out: str | Path, pid: str) -> Path:
+    """The directory of point ``pid`` in sweep directory ``out``."""
+    return Path(out) / POINTS / pid
+
+
+def write_atomic(path: Path, data: str | bytes):
+    """Write ``data`` to ``path`` through a temporary file and :func:`os.replace`.
+
+    Readers see the old file or the new one, never a part.
+
+    Example:
+        >>> import tempfile
+        >>> p = Path(tempfile.mkdtemp()) / "x.txt"
+        >>> write_atomic(p, "hello"); p.read_text()
+        'hello'
+    """
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
+    with open(tmp, "wb") as f:
+        f.write(data.encode() if isinstance(data, str) else data)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+
+
+def write_json(path: Path, data: Any):
+    """Write ``data`` as indented JSON, atomically."""
+    write_atomic(path, json.dumps(data, indent=2, default=str) + "\n")
+
+
+def read_json(path: Path) -> Any:
+    """The JSON in ``path``, or ``None`` if it is missing or unreadable."""
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None

@@ -1,0 +1,250 @@
+"""Checkpoints and restarts: exact round trips, bit-for-bit continuation (also after kill -9), errors."""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import gsd.hoomd
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+import edmd
+import edmd.runner
+from edmd import Thermo, Trajectory
+from edmd._io import atomic_path
+from edmd.checkpoint import Checkpoint, CheckpointError, load_checkpoint, read_checkpoint, save_checkpoint
+from edmd.cli import app
+
+FIELDS = ("position", "velocity", "radius", "mass", "box", "angular_velocity", "inertia", "image", "periodic")
+SRC = str(Path(__file__).resolve().parents[1] / "src")
+
+
+def _initial(dim, eta):
+    return edmd.maxwell_boltzmann(edmd.lattice(400, eta, dim=dim), 1.0, seed=5)
+
+
+def _observers(d: Path, ck_interval=0.5, wall=None):
+    return [
+        Thermo(0.25, path=d / "thermo.csv"),
+        Trajectory(d / "traj.gsd", 0.5),
+        Checkpoint(d / "ck.gsd", ck_interval, wall_interval=wall),
+    ]
+
+
+def _run(d: Path, state, until, e_n=1.0, engine=None, physics=None, **kw):
+    d.mkdir(exist_ok=True)
+    sim = edmd.Simulation(state, engine=engine, **(physics or {"e_n": e_n}))
+    for o in _observers(d, **kw):
+        sim.add(o)
+    sim.run(until_time=until)
+    sim.close()
+    return sim
+
+
+def assert_same_files(a: Path, b: Path, traj="traj.gsd"):
+    """Thermo CSV byte for byte; every trajectory frame chunk for chunk."""
+    assert (a / "thermo.csv").read_bytes() == (b / "thermo.csv").read_bytes()
+    with gsd.hoomd.open(a / traj) as fa, gsd.hoomd.open(b / traj) as fb:
+        assert len(fa) == len(fb) > 1
+        for x, y in zip(fa, fb):
+            for attr in ("position", "velocity", "image", "angmom", "diameter", "mass"):
+                assert np.array_equal(getattr(x.particles, attr), getattr(y.particles, attr)), attr
+            assert x.log.keys() == y.log.keys()
+            for k in x.log:
+                assert np.array_equal(x.log[k], y.log[k]), k
+
+
+def test_checkpoint_holds_the_exact_state_and_engine(tmp_path, dim):
+    s = edmd.maxwell_boltzmann(_initial(dim, 0.3), 1.0, seed=2, spin=True)
+    sim = edmd.Simulation(s, e_n=0.8)
+    sim.run(max_events=7000)
+    save_checkpoint(sim, tmp_path / "c.gsd", metadata={"note": "x"})
+    data = read_checkpoint(tmp_path / "c.gsd")
+    now = sim.state
+    for f in FIELDS:
+        assert np.array_equal(getattr(data.state, f), getattr(now, f)), f
+    assert data.time == sim.time and data.metadata == {"note": "x"}
+    assert np.array_equal(data.arrays["counters"], sim.engine.cnt)
+    assert np.array_equal(data.arrays["accumulators"], sim.engine.acc)
+    again = load_checkpoint(tmp_path / "c.gsd")
+    assert again.params == sim.params and again.time == sim.time
+    assert again.totals() == sim.totals()
+    assert again.engine.events_at_sync == sim.engine.events_at_sync
+    assert again.engine.list_capacity == sim.engine.list_capacity
+
+
+@pytest.mark.parametrize("eta, mode", [(0.3, "list"), (0.04, "cells")])
+def test_interrupted_run_continues_bit_for_bit(tmp_path, dim, eta, mode):
+    s = _initial(dim, eta)
+    engine = {"resync_every": 1.5, "neighbours": mode}  # maintenance resyncs fall between checkpoints
+    whole = _run(tmp_path / "whole", s, 4.0, e_n=0.9, engine=engine)
+    part = _run(tmp_path / "part", s, 2.3, e_n=0.9, engine=engine)  # "interrupted" after t = 2.0
+    assert read_checkpoint(tmp_path / "part" / "ck.gsd").time == 2.0
+    sim = load_checkpoint(tmp_path / "part" / "ck.gsd", _observers(tmp_path / "part"))
+    assert sim.time == 2.0 and part.time == 2.3
+    sim.run(until_time=4.0)
+    sim.close()
+    assert_same_files(tmp_path / "whole", tmp_path / "part")
+    assert sim.totals() == whole.totals()
+    assert np.array_equal(sim.engine.cnt, whole.engine.cnt)
+    assert whole.events > 3 * 1.5 * 400  # several maintenance resyncs on the way
+
+
+def test_granular_run_with_tc_walls_and_gravity_restarts_bit_for_bit(tmp_path, dim):
+    """Rough particles, TC memory, Coulomb walls and gravity all survive a checkpoint exactly."""
+    from edmd import collide
+
+    periodic = [True] * (dim - 1) + [False]
+    s = edmd.random_packing(300, 0.2, dim=dim, periodic=periodic, seed=9, radius={"kind": "uniform", "min": 0.4, "max": 0.6}, density=1.0)
+    s = edmd.maxwell_boltzmann(s, 1.0, seed=10, spin=True)
+    g = np.zeros(dim)
+    g[-1] = -0.5
+    physics = {
+        "collision": collide.TC(collide.Rough(collide.Viscoelastic(young=1e4, poisson=0.3, A=1e-3), beta=0.1), 0.05),
+        "walls": collide.Wall(e_n=0.7, beta=0.0, mu=0.4),
+        "gravity": g,
+    }
+    whole = _run(tmp_path / "whole", s, 4.0, physics=physics)
+    _run(tmp_path / "part", s, 2.3, physics=physics)
+    sim = load_checkpoint(tmp_path / "part" / "ck.gsd", _observers(tmp_path / "part"))
+    assert np.isfinite(sim.state.last_collision).any()
+    sim.run(until_time=4.0)
+    sim.close()
+    assert_same_files(tmp_path / "whole", tmp_path / "part")
+    assert sim.totals() == whole.totals() and whole.engine.cnt[10] > 0  # TC was active
+    assert whole.totals().wall_collisions > 50
+
+
+def test_wall_clock_interval_decides_only_what_is_written(tmp_path):
+    s = _initial(3, 0.3)
+    a = _run(tmp_path / "a", s, 2.0)
+    b = _run(tmp_path / "b", s, 2.0, wall=3600.0)
+    ck_a, ck_b = a.observers[-1], b.observers[-1]
+    assert ck_a.writes == 5 and ck_b.writes == 2  # b: the first point and, at close, the last one
+    assert_same_files(tmp_path / "a", tmp_path / "b")
+    assert read_checkpoint(tmp_path / "b" / "ck.gsd").time == 2.0
+
+
+def test_restarted_observers_must_match(tmp_path):
+    _run(tmp_path / "a", _initial(2, 0.3), 1.0)
+    ck = tmp_path / "a" / "ck.gsd"
+    with pytest.raises(CheckpointError, match=r"saved with observers \['Thermo', 'Trajectory', 'Checkpoint'\]"):
+        load_checkpoint(ck, [Thermo(0.25)])
+    wrong = _observers(tmp_path / "a")
+    wrong[0] = Thermo(0.3)
+    with pytest.raises(CheckpointError, match="observer 0 .Thermo. cannot be restored: interval"):
+        load_checkpoint(ck, wrong)
+
+
+def test_bad_checkpoints_are_clear_errors(tmp_path):
+    with pytest.raises(CheckpointError, match="no checkpoint file"):
+        read_checkpoint(tmp_path / "missing.gsd")
+    (tmp_path / "junk.gsd").write_bytes(b"\x00garbage" * 100)
+    with pytest.raises(CheckpointError, match="not a readable checkpoint"):
+        read_checkpoint(tmp_path / "junk.gsd")
+    edmd.write_state(tmp_path / "plain.gsd", _initial(3, 0.1))
+    with pytest.raises(CheckpointError, match="not an edmd checkpoint"):
+        read_checkpoint(tmp_path / "plain.gsd")
+    _run(tmp_path / "a", _initial(3, 0.3), 1.0)
+    (tmp_path / "a" / "traj.gsd").unlink()
+    with pytest.raises(CheckpointError, match="fewer than the 3 the checkpoint expects"):
+        load_checkpoint(tmp_path / "a" / "ck.gsd", _observers(tmp_path / "a"))
+
+
+def test_atomic_write_keeps_the_old_file_on_failure(tmp_path):
+    p = tmp_path / "f.txt"
+    p.write_text("old")
+    with pytest.raises(RuntimeError):
+        with atomic_path(p) as tmp:
+            tmp.write_text("half")
+            raise RuntimeError("killed while writing")
+    assert p.read_text() == "old"
+    assert list(tmp_path.iterdir()) == [p]
+
+
+CONFIG = """
+[system]
+dim = {dim}
+n = 300
+packing_fraction = 0.3
+[collision]
+rule = "inelastic"
+e_n = 0.95
+[run]
+until_time = {until}
+output_interval = 0.1
+progress = false
+[output]
+trajectory_interval = 0.2
+checkpoint_interval = 0.2
+plots = false
+"""
+
+
+def _config(tmp_path, dim, until):
+    p = tmp_path / f"c{until}.toml"
+    p.write_text(CONFIG.format(dim=dim, until=until))
+    return p
+
+
+def test_cli_restart_extends_a_run_exactly(tmp_path, dim):
+    runner = CliRunner()
+    r = runner.invoke(app, ["run", str(_config(tmp_path, dim, 3.0)), "--out", str(tmp_path / "ref")])
+    assert r.exit_code == 0, r.output
+    r = runner.invoke(app, ["run", str(_config(tmp_path, dim, 1.6)), "--out", str(tmp_path / "x")])
+    assert r.exit_code == 0, r.output
+    r = runner.invoke(app, ["run", "--restart", str(tmp_path / "x"), "--until-time", "3.0"])
+    assert r.exit_code == 0, r.output
+    assert_same_files(tmp_path / "ref", tmp_path / "x", traj="trajectory.gsd")
+    assert "until_time = 3.0" in (tmp_path / "x" / "config.toml").read_text()
+
+
+def test_cli_restart_errors_are_clean(tmp_path):
+    runner = CliRunner()
+    r = runner.invoke(app, ["run", "--restart", str(tmp_path / "nothing")])
+    assert r.exit_code == 2 and "no run directory" in r.output and "Traceback" not in r.output
+    (tmp_path / "d").mkdir()
+    (tmp_path / "d" / "checkpoint.gsd").write_bytes(b"broken")
+    r = runner.invoke(app, ["run", "--restart", str(tmp_path / "d")])
+    assert r.exit_code == 2 and "not a readable checkpoint" in r.output and "Traceback" not in r.output
+
+
+def test_kill_9_mid_run_then_restart_is_bit_for_bit(tmp_path):
+    """A child process runs "forever"; it is killed with SIGKILL after some checkpoints, then continued."""
+    dim, t_end = 3, 3.0
+    runner = CliRunner()
+    r = runner.invoke(app, ["run", str(_config(tmp_path, dim, t_end)), "--out", str(tmp_path / "ref")])
+    assert r.exit_code == 0, r.output  # also compiles the core (cached) before the child starts
+    out = tmp_path / "killed"
+    env = {**os.environ, "PYTHONPATH": SRC + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    cmd = [sys.executable, "-m", "edmd", "run", str(_config(tmp_path, dim, 1e6)), "--out", str(out), "--no-progress"]
+    child = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    ck = out / "checkpoint.gsd"
+    deadline = time.monotonic() + 120
+    try:
+        while time.monotonic() < deadline and child.poll() is None:
+            if ck.exists() and read_checkpoint(ck).time >= 1.0:
+                break
+            time.sleep(0.02)
+    finally:
+        child.send_signal(signal.SIGKILL)
+        child.wait()
+    assert child.returncode == -signal.SIGKILL, child.stderr.read().decode()
+    t_ck = read_checkpoint(ck).time
+    assert 1.0 <= t_ck < t_end, f"the child got to t = {t_ck} before the kill"
+    r = runner.invoke(app, ["run", "--restart", str(out), "--until-time", str(t_end)])
+    assert r.exit_code == 0, r.output
+    assert_same_files(tmp_path / "ref", out, traj="trajectory.gsd")
+
+
+def test_cli_interrupt_points_to_restart(tmp_path, monkeypatch):
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(edmd.runner, "run_directory", interrupted)
+    r = CliRunner().invoke(app, ["run", str(_config(tmp_path, 2, 1.0)), "--out", str(tmp_path / "x")])
+    assert r.exit_code == 130 and f"edmd run --restart {tmp_path / 'x'}" in " ".join(r.output.split())
