@@ -52,6 +52,14 @@ def machine_info() -> dict:
     }
 
 
+def write_results(path: str, args: argparse.Namespace, results) -> None:
+    """Write the results with machine information and the arguments as JSON."""
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps({"machine": machine_info(), "args": vars(args), "results": results}, indent=2))
+    print(f"wrote {out}")
+
+
 def engine_bytes(sim: edmd.Simulation) -> int:
     e = sim.engine
     arrays = [*e.part, *e.ev, *e.q, *e.grid, *e.lists]
@@ -112,10 +120,7 @@ def main(argv=None):
                 f"MSD {r['msd_during_measurement']:.2f}",
                 flush=True,
             )
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps({"machine": machine_info(), "args": vars(args), "results": results}, indent=2))
-    print(f"wrote {out}")
+    write_results(args.out, args, results)
 
 
 if __name__ == "__main__":

@@ -2,6 +2,8 @@
 
 from .checkpoint import Checkpoint, CheckpointError, read_checkpoint
 from .config import Config, ConfigError, load_config, parse_config
+from .contact import ContactError, Hertz, LinearDashpot
+from .dem import DEMSimulation
 from .engine import EngineOptions
 from .initial import lattice, maxwell_boltzmann, radii, random_packing
 from .simulation import Callback, Observer, Simulation, Totals
@@ -16,7 +18,11 @@ __all__ = [
     "CheckpointError",
     "Config",
     "ConfigError",
+    "ContactError",
+    "DEMSimulation",
     "EngineOptions",
+    "Hertz",
+    "LinearDashpot",
     "Observer",
     "Simulation",
     "State",

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import difflib
 import tomllib
+import typing
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -178,6 +179,57 @@ class EngineConfig(_Section):
     events_per_bucket: float = Field(4.0, gt=0)
 
 
+class IntegratorConfig(_Section):
+    """``[integrator]``: event-driven MD of hard particles, or force-based MD (DEM) of soft ones."""
+
+    kind: Literal["edmd", "dem"] = "edmd"
+    dt: float | None = Field(None, gt=0, description="DEM time step (default: shortest contact / steps_per_contact)")
+    steps_per_contact: float = Field(50.0, gt=0, description="DEM steps per shortest contact duration")
+    impact_speed: float | None = Field(None, gt=0, description="impact speed for the Hertz contact duration (default from the state)")
+    skin: float = Field(0.3, gt=0, description="DEM neighbour-list skin, in mean diameters")
+
+
+class ContactConfig(_Section):
+    """``[contact]``: the soft contact law of the DEM (see :mod:`edmd.contact`).
+
+    ``model = "dashpot"``: ``k`` and ``gamma`` (or ``e_n``: the restitution of two particles of
+    the mean mass); ``model = "hertz"``: ``young``, ``poisson`` and ``A``.
+    """
+
+    model: Literal["dashpot", "hertz"]
+    k: float | None = Field(None, gt=0, description="dashpot spring constant")
+    gamma: float | None = Field(None, ge=0, description="dashpot damping constant")
+    e_n: float | None = Field(None, gt=0, le=1, description="dashpot restitution (instead of gamma)")
+    young: float | None = Field(None, gt=0, description="Hertz: Young's modulus")
+    poisson: float | None = Field(None, gt=-1, le=0.5, description="Hertz: Poisson ratio")
+    A: float | None = Field(None, ge=0, description="Hertz: dissipative time constant")
+
+    @model_validator(mode="after")
+    def _complete(self):
+        own = {"dashpot": ("k", "gamma", "e_n"), "hertz": ("young", "poisson", "A")}[self.model]
+        foreign = [k for k in ("k", "gamma", "e_n", "young", "poisson", "A") if k not in own and getattr(self, k) is not None]
+        if foreign:
+            raise ValueError(f"{', '.join(foreign)} not used by model {self.model!r} (it takes {', '.join(own)})")
+        if self.model == "dashpot":
+            if self.k is None:
+                raise ValueError("model 'dashpot' needs the spring constant k")
+            if self.gamma is not None and self.e_n is not None:
+                raise ValueError("give gamma or e_n, not both")
+        elif self.young is None or self.poisson is None:
+            raise ValueError("model 'hertz' needs young and poisson (and A, default 0)")
+        return self
+
+    def build(self, mass: float):
+        """The :class:`~edmd.contact.ContactModel` (``mass``: the mean particle mass, for ``e_n``)."""
+        from .contact import Hertz, LinearDashpot
+
+        if self.model == "hertz":
+            return Hertz(self.young, self.poisson, self.A or 0.0)
+        if self.e_n is not None:
+            return LinearDashpot.from_restitution(self.e_n, self.k, mass)
+        return LinearDashpot(self.k, self.gamma or 0.0)
+
+
 class OutputConfig(_Section):
     """``[output]``: which files the run directory gets."""
 
@@ -207,12 +259,29 @@ class Config(_Section):
     run: RunConfig = RunConfig()
     engine: EngineConfig = EngineConfig()
     output: OutputConfig = OutputConfig()
+    integrator: IntegratorConfig = IntegratorConfig()
+    contact: ContactConfig | None = None
+
+    @model_validator(mode="after")
+    def _integrator(self):
+        if self.integrator.kind == "dem":
+            if self.contact is None:
+                raise ValueError("integrator.kind = 'dem' needs a [contact] section (model = 'dashpot' or 'hertz')")
+            if self.collision.rule != "elastic" or self.collision.tc is not None:
+                raise ValueError("the DEM takes its dissipation from [contact]; leave [collision] at rule = 'elastic' (no tc)")
+            if self.walls.axes:
+                raise ValueError("the DEM needs a periodic box: leave walls.axes empty")
+        elif self.contact is not None:
+            raise ValueError("[contact] is used by integrator.kind = 'dem' only")
+        return self
 
 
 def _known_keys(model: type[BaseModel], loc: tuple) -> list[str]:
     for part in loc[:-1]:
         field = model.model_fields.get(part) if isinstance(part, str) else None
         ann = getattr(field, "annotation", None) if field else None
+        models = [a for a in typing.get_args(ann) if isinstance(a, type) and issubclass(a, BaseModel)]
+        ann = models[0] if models and not isinstance(ann, type) else ann
         if isinstance(ann, type) and issubclass(ann, BaseModel):
             model = ann
         else:
@@ -261,6 +330,8 @@ def dump_config(cfg: Config) -> str:
     """The fully resolved configuration as TOML (every default written out)."""
     lines = []
     for section, model in cfg:
+        if model is None:
+            continue
         lines.append(f"[{section}]")
         for key, value in model:
             if value is None:
@@ -334,6 +405,15 @@ checkpoint = true         # checkpoint.gsd: continue with `edmd run --restart DI
 # checkpoint_interval = 10.0       # simulation time between checkpoint points (default: output_interval)
 # checkpoint_wall_interval = 600   # write a point only if this many seconds passed since the last write
 plots = true              # PNG figures at the end of the run (also: `edmd plot DIR`)
+
+[integrator]
+kind = "edmd"             # "edmd" (event-driven, hard particles) or "dem" (force-based, soft contacts)
+# steps_per_contact = 50  # DEM time step = shortest contact duration / steps_per_contact (or set dt)
+
+# [contact]               # the soft contact law, needed by kind = "dem"
+# model = "dashpot"       # "dashpot": k, gamma (or e_n); "hertz": young, poisson, A
+# k = 1e4
+# e_n = 0.9
 """
 
 #: The built-in job of ``edmd run`` without a configuration: a freely cooling granular gas

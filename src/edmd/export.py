@@ -119,6 +119,6 @@ def export_frame(source: str | os.PathLike, output: str | os.PathLike, frame: in
         source = source / "trajectory.gsd"
     if not source.is_file():
         raise StateError(f"no GSD file {source}")
-    state = read_state(source, frame)
+    state = read_state(source, frame, check_overlaps=False)
     writer(output, state)
     return state

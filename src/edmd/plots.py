@@ -131,7 +131,7 @@ def _haff_for_run(run_dir: Path, table) -> HaffLaw | None:
     traj = run_dir / "trajectory.gsd"
     if e_n >= 1.0 or frame_count(traj) == 0:
         return None
-    first = read_state(traj, 0)
+    first = read_state(traj, 0, check_overlaps=False)
     return HaffLaw.from_state(first, e_n, kT0=float(table["temperature"][0]), t0=float(table["time"][0]))
 
 
@@ -161,7 +161,7 @@ def plot_run(run_dir: str | os.PathLike, color_by: str = "speed") -> list[Path]:
 
 
 def _plot_frames(run_dir: Path, traj: Path, frames: int, color_by: str) -> list[Path]:
-    last = list(iter_states(traj, start=max(frames - 5, 0)))
+    last = list(iter_states(traj, start=max(frames - 5, 0), check_overlaps=False))
     final = last[-1]
     written = []
     if all(s.temperature() > 0 for s in last):  # a single particle, or one at rest, has no distribution
@@ -171,7 +171,7 @@ def _plot_frames(run_dir: Path, traj: Path, frames: int, color_by: str) -> list[
         r_max = min(5.0 * sigma, 0.5 * float(final.box[final.periodic].min())) if final.periodic.any() else 5.0 * sigma
         written.append(save(RDF(bins=max(int(round(r_max / (0.02 * sigma))), 10), r_max=r_max).compute(last).plot(), run_dir / "rdf.png"))
     if frames >= 2:
-        states = list(iter_states(traj))
+        states = list(iter_states(traj, check_overlaps=False))
         equal = np.allclose(np.diff([s.time for s in states]), states[1].time - states[0].time, rtol=1e-9)
         mode = "window" if equal and _restitution(run_dir) == 1.0 else "direct"
         written.append(save(MSD(mode).compute(states).plot(), run_dir / "msd.png"))

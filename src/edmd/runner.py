@@ -26,7 +26,7 @@ def build_state(cfg: Config) -> State:
     """The initial state described by ``[system]`` (or read from ``system.from_file``)."""
     s = cfg.system
     if s.from_file is not None:
-        return read_state(s.from_file, s.from_frame)
+        return read_state(s.from_file, s.from_frame, check_overlaps=cfg.integrator.kind != "dem")
     radius = s.radius if isinstance(s.radius, float) else s.radius.as_dict()
     periodic = [axis not in cfg.walls.axes for axis in "xyz"[: s.dim]]
     common = dict(
@@ -40,8 +40,20 @@ def build_state(cfg: Config) -> State:
 
 
 def build_simulation(cfg: Config, state: State | None = None) -> Simulation:
-    """A :class:`Simulation` for ``cfg`` (from ``state`` if given, else from ``[system]``)."""
+    """A :class:`Simulation` for ``cfg`` (from ``state`` if given, else from ``[system]``).
+
+    With ``[integrator] kind = "dem"`` it is a :class:`~edmd.dem.DEMSimulation` with the
+    ``[contact]`` law.
+    """
     state = build_state(cfg) if state is None else state
+    if cfg.integrator.kind == "dem":
+        from .dem import DEMSimulation
+
+        i = cfg.integrator
+        contact = cfg.contact.build(float(state.mass.mean()))
+        return DEMSimulation(
+            state, contact, dt=i.dt, steps_per_contact=i.steps_per_contact, impact_speed=i.impact_speed, gravity=cfg.system.gravity, skin=i.skin
+        )
     e = cfg.engine
     options = EngineOptions(neighbours=e.neighbours, skin=e.skin, resync_every=e.resync_every, events_per_bucket=e.events_per_bucket)
     rule = cfg.collision.build()
@@ -58,7 +70,7 @@ def make_observers(cfg: Config, out: Path) -> list[Observer]:
         observers.append(Thermo(interval, path=out / "thermo.csv"))
     if o.trajectory:
         observers.append(Trajectory(out / "trajectory.gsd", o.trajectory_interval or interval))
-    if o.checkpoint:
+    if o.checkpoint and cfg.integrator.kind != "dem":  # the DEM has no checkpoints (yet)
         meta = {"config": dump_config(cfg)}
         observers.append(Checkpoint(out / "checkpoint.gsd", o.checkpoint_interval or interval, o.checkpoint_wall_interval, metadata=meta))
     return observers
@@ -146,6 +158,9 @@ def summarize(sim: Simulation, thermo: Thermo | None) -> dict:
         "neighbours": sim.engine.mode,
         "machine": platform.platform(),
     }
+    if sim.engine.mode == "dem":
+        summary["dt"] = sim.dt
+        summary["particle_steps_per_second"] = st.n * sim.events / sim.wall_seconds if sim.wall_seconds > 0 else math.nan
     written = [o.last_written for o in sim.observers if isinstance(o, Checkpoint) and o.last_written is not None]
     if written:
         summary["checkpoint_time"] = written[-1]

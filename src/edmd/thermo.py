@@ -86,7 +86,7 @@ class Thermo(Observer):
 
     def observe(self, sim: Simulation, state: State, totals: Totals):
         kinetic, rotational = state.kinetic_energy(), state.rotational_energy()
-        potential = state.potential_energy(sim.gravity)
+        potential = state.potential_energy(sim.gravity) + getattr(sim, "elastic_energy", 0.0)  # + soft contacts (DEM)
         row = {
             "time": totals.time,
             "events": totals.events,

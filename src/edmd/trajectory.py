@@ -84,11 +84,12 @@ def state_to_frame(state: State, totals: Totals | None = None) -> gsd.hoomd.Fram
     return f
 
 
-def frame_to_state(frame: gsd.hoomd.Frame) -> State:
+def frame_to_state(frame: gsd.hoomd.Frame, check_overlaps: bool = True) -> State:
     """Rebuild a :class:`State` from a GSD frame (exact for frames written by edmd).
 
     Frames from other programs work too: the box then comes from the (single precision)
     configuration chunk, radii from diameters (default 1), masses default to 1.
+    ``check_overlaps=False`` accepts overlapping particles (soft-sphere frames, :mod:`edmd.dem`).
     """
     d = int(frame.configuration.dimensions or 3)
     n = int(frame.particles.N)
@@ -131,6 +132,7 @@ def frame_to_state(frame: gsd.hoomd.Frame) -> State:
         image=image,
         periodic=None if periodic is None else np.asarray(periodic, bool),
         last_collision=None if last is None else np.asarray(last, np.float64),
+        check_overlaps=check_overlaps,
     )
 
 
@@ -161,8 +163,10 @@ def frame_count(path: str | os.PathLike) -> int:
         raise _open_error(path, exc) from exc
 
 
-def iter_states(path: str | os.PathLike, start: int = 0, stop: int | None = None, step: int = 1) -> Iterator[State]:
+def iter_states(path: str | os.PathLike, start: int = 0, stop: int | None = None, step: int = 1, check_overlaps: bool = True) -> Iterator[State]:
     """The States of frames ``start:stop:step`` of a GSD file, one at a time.
+
+    ``check_overlaps=False`` reads frames of soft particles in contact (:mod:`edmd.dem`).
 
     Example:
         >>> import edmd, tempfile, os
@@ -175,7 +179,7 @@ def iter_states(path: str | os.PathLike, start: int = 0, stop: int | None = None
     try:
         with gsd.hoomd.open(str(path), "r") as traj:
             for k in range(*slice(start, stop, step).indices(len(traj))):
-                yield frame_to_state(traj[k])
+                yield frame_to_state(traj[k], check_overlaps)
     except (OSError, RuntimeError, ValueError, KeyError) as exc:
         raise _open_error(path, exc) from exc
 
@@ -196,8 +200,10 @@ def truncate_frames(path: str | os.PathLike, frames: int):
                 dst.append(src[k])
 
 
-def read_state(path: str | os.PathLike, frame: int = -1) -> State:
+def read_state(path: str | os.PathLike, frame: int = -1, check_overlaps: bool = True) -> State:
     """The :class:`State` stored in frame ``frame`` of a GSD file (default: the last).
+
+    ``check_overlaps=False`` reads frames of soft particles in contact (:mod:`edmd.dem`).
 
     Example:
         >>> import edmd, tempfile, os
@@ -213,7 +219,7 @@ def read_state(path: str | os.PathLike, frame: int = -1) -> State:
                 raise StateError(f"{path} holds no frames")
             if not -len(traj) <= frame < len(traj):
                 raise StateError(f"{path} has {len(traj)} frames, there is no frame {frame}")
-            return frame_to_state(traj[frame])
+            return frame_to_state(traj[frame], check_overlaps)
     except (OSError, RuntimeError, ValueError, KeyError) as exc:
         raise _open_error(path, exc) from exc
 

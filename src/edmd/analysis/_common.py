@@ -16,7 +16,7 @@ def as_states(system) -> list[State]:
     if isinstance(system, (str, os.PathLike)):
         from ..trajectory import iter_states
 
-        states = list(iter_states(system))
+        states = list(iter_states(system, check_overlaps=False))
     elif isinstance(system, Iterable):
         states = list(system)
     else:

@@ -38,7 +38,7 @@ import hashlib
 import itertools
 import tomllib
 from pathlib import Path
-from typing import Any
+from typing import Any, get_args
 
 import numpy as np
 
@@ -117,7 +117,14 @@ def replica_seed(seed: int, replica: int) -> int:
 
 def known_keys() -> list[str]:
     """Every dotted key a sweep may set (``section.field`` of :class:`edmd.config.Config`)."""
-    return [f"{s}.{f}" for s, field in Config.model_fields.items() for f in field.annotation.model_fields]
+    return [f"{s}.{f}" for s, field in Config.model_fields.items() for f in _section_model(field.annotation).model_fields]
+
+
+def _section_model(annotation):
+    """The pydantic model of a configuration section (optional sections: ``Model | None``)."""
+    if isinstance(annotation, type):
+        return annotation
+    return next(a for a in get_args(annotation) if isinstance(a, type) and a is not type(None))
 
 
 def check_key(key: str, where: str):

@@ -1,0 +1,174 @@
+"""Optional: the same dilute viscoelastic gas in LAMMPS (``pair granular``) and in edmd's DEM.
+
+Needs a LAMMPS executable ``lmp`` with the GRANULAR package (Debian: ``apt-get install lammps``);
+never a dependency of edmd. Both codes start from the same state (edmd's fcc lattice with
+Maxwell-Boltzmann velocities, written as a LAMMPS data file), use the same time step (edmd's
+default: the shortest contact / 50) and the same force law:
+
+* edmd: ``Hertz(young=Y, poisson=nu, A=A)``, :math:`F = \\rho\\xi^{3/2} + \\tfrac32A\\rho\\xi^{1/2}\\dot\\xi`;
+* LAMMPS: ``hertz/material Y eta_n0 nu ... damping viscoelastic limit_damping`` with
+  :math:`\\eta_n = \\eta_{n0}\\,a\\,m_{\\rm eff}`, :math:`a = \\sqrt{R_{\\rm eff}\\xi}`, so
+  :math:`\\eta_{n0} = AY/((1-\\nu^2)m_{\\rm eff})` reproduces the viscoelastic damping;
+  ``limit_damping`` ends a contact when the force would turn attractive (physics.md §2.2);
+  frictionless (``tangential linear_nohistory 0 0``).
+
+The mapping is checked by a head-on collision (restitution from LAMMPS vs edmd's solver), the
+gas by its kinetic energy after the run. Reported: steps per second and particle-steps per
+second of both on one core (LAMMPS serial, ``OMP_NUM_THREADS=1``), ``results/lammps.json``.
+
+Usage::
+
+    python benchmarks/bench_lammps.py --n 4000 32000 --eta 0.05 --steps 2000
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import shutil
+import subprocess
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from bench_hard_spheres import write_results
+
+import edmd
+from edmd.contact import Hertz
+
+PAIR = "pair_style granular\npair_coeff * * hertz/material {young!r} {eta0!r} {poisson!r} tangential linear_nohistory 0.0 0.0 damping viscoelastic limit_damping\n"
+
+
+def lammps_pair(contact: Hertz, mass: float) -> str:
+    eta0 = contact.A * contact.young / ((1.0 - contact.poisson**2) * (0.5 * mass))
+    return PAIR.format(young=contact.young, eta0=eta0, poisson=contact.poisson)
+
+
+def write_data(path: Path, state: edmd.State):
+    """A LAMMPS data file (atom_style sphere: id type diameter density x y z) with velocities."""
+    n = state.n
+    lo, hi = -0.5 * state.box, 0.5 * state.box
+    dens = state.mass / state.particle_volume()
+    lines = [f"edmd state, t = {state.time}", "", f"{n} atoms", "1 atom types", ""]
+    lines += [f"{lo[k]:.17g} {hi[k]:.17g} {a}lo {a}hi" for k, a in enumerate("xyz")]
+    lines += ["", "Atoms # sphere", ""]
+    lines += [f"{i + 1} 1 {2 * state.radius[i]:.17g} {dens[i]:.17g} {x:.17g} {y:.17g} {z:.17g}" for i, (x, y, z) in enumerate(state.position)]
+    lines += ["", "Velocities", ""]
+    lines += [f"{i + 1} {vx:.17g} {vy:.17g} {vz:.17g} 0 0 0" for i, (vx, vy, vz) in enumerate(state.velocity)]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def run_lammps(lmp: str, workdir: Path, script: str) -> str:
+    (workdir / "in.lmp").write_text(script)
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    res = subprocess.run([lmp, "-in", "in.lmp", "-log", "none"], cwd=workdir, env=env, capture_output=True, text=True, timeout=3600)
+    if res.returncode != 0 or "ERROR" in res.stdout:
+        raise RuntimeError(f"LAMMPS failed:\n{res.stdout[-2000:]}\n{res.stderr[-2000:]}")
+    return res.stdout
+
+
+def head_on_restitution(lmp: str, contact: Hertz, speed: float) -> float:
+    """e_n of a head-on collision of two unit spheres (mass 1) in LAMMPS."""
+    with tempfile.TemporaryDirectory() as d:
+        t_c = contact.central(1.0, 1.0, 0.5, 0.5, speed).t_c
+        steps = int(round(3.0 / speed / (t_c / 2000)))
+        script = f"""units lj
+atom_style sphere
+atom_modify map array
+boundary p p p
+region box block -10 10 -10 10 -10 10
+create_box 1 box
+create_atoms 1 single -1.0 0 0
+create_atoms 1 single 1.0 0 0
+set atom * diameter 1.0
+set atom * density {6 / np.pi!r}
+velocity all set 0 0 0
+set atom 1 vx {speed / 2!r}
+set atom 2 vx {-speed / 2!r}
+{lammps_pair(contact, 1.0)}comm_modify vel yes
+neighbor 0.3 bin
+fix 1 all nve
+timestep {t_c / 2000!r}
+variable v2 equal vx[2]
+run {steps}
+print "V2 ${{v2}}"
+"""
+        out = run_lammps(lmp, Path(d), script)
+        return 2.0 * float(re.search(r"^V2 (\S+)", out, re.M).group(1)) / speed
+
+
+def compare(lmp: str, contact: Hertz, n: int, eta: float, steps: int, repeats: int) -> dict:
+    """One gas in both codes from the same state: steps per second and kinetic energy at the end."""
+    state = edmd.maxwell_boltzmann(edmd.lattice(n, eta), kT=1.0, seed=3)
+    dt = edmd.DEMSimulation(state, contact).dt
+    edmd.DEMSimulation(state, contact, dt=dt).run(max_events=10)  # compile
+    rates = []
+    for _ in range(repeats):
+        sim = edmd.DEMSimulation(state, contact, dt=dt)
+        t0 = time.perf_counter()
+        sim.run(max_events=steps)
+        rates.append(steps / (time.perf_counter() - t0))
+    script = f"""units lj
+atom_style sphere
+boundary p p p
+read_data state.data
+{lammps_pair(contact, float(state.mass[0]))}comm_modify vel yes
+neighbor {0.3 * 2 * float(state.radius.mean())!r} bin
+neigh_modify delay 0 every 1 check yes
+fix 1 all nve
+timestep {dt!r}
+thermo_style custom step ke
+thermo {steps}
+run {steps}
+"""
+    lmp_rates = []
+    with tempfile.TemporaryDirectory() as d:
+        write_data(Path(d) / "state.data", state)
+        for _ in range(repeats):
+            out = run_lammps(lmp, Path(d), script)
+            lmp_rates.append(steps / float(re.search(r"Loop time of (\S+) on 1 procs", out).group(1)))
+    ke_lmp = float(re.findall(rf"^\s*{steps}\s+(\S+)\s*$", out, re.M)[-1])  # lj units: per atom
+    return {
+        "n": n,
+        "eta": eta,
+        "steps": steps,
+        "dt": dt,
+        "kinetic_energy_per_particle_end": {"lammps": ke_lmp, "edmd": sim.state.kinetic_energy() / n, "start": state.kinetic_energy() / n},
+        "steps_per_s": {"lammps": float(np.median(lmp_rates)), "edmd": float(np.median(rates))},
+        "particle_steps_per_s": {"lammps": float(np.median(lmp_rates)) * n, "edmd": float(np.median(rates)) * n},
+    }
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--n", type=int, nargs="+", default=[4000, 32000])
+    ap.add_argument("--eta", type=float, default=0.05)
+    ap.add_argument("--steps", type=int, default=2000)
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--lmp", default=shutil.which("lmp") or "lmp")
+    ap.add_argument("--out", default=str(Path(__file__).with_name("results") / "lammps.json"))
+    args = ap.parse_args(argv)
+    if shutil.which(args.lmp) is None:
+        raise SystemExit(f"no LAMMPS executable {args.lmp!r} (Debian: apt-get install lammps); nothing to compare")
+    contact = Hertz(young=1e5, poisson=0.3, A=1e-4)
+    e_lmp = head_on_restitution(args.lmp, contact, 1.0)
+    e_edmd = contact.central(1.0, 1.0, 0.5, 0.5, 1.0).e_n
+    print(f"head-on e_n at v = 1: LAMMPS {e_lmp:.8f}, edmd {e_edmd:.8f}")
+    version = subprocess.run([args.lmp, "-h"], capture_output=True, text=True).stdout.splitlines()[1].strip()
+    results = []
+    for n in args.n:
+        r = compare(args.lmp, contact, n, args.eta, args.steps, args.repeats)
+        r.update(contact={"young": contact.young, "poisson": contact.poisson, "A": contact.A}, head_on_e_n={"lammps": e_lmp, "edmd": e_edmd}, lammps_version=version)
+        ke, ps = r["kinetic_energy_per_particle_end"], r["particle_steps_per_s"]
+        print(
+            f"N={n} eta={args.eta}, {args.steps} steps of {r['dt']:.3g}: KE/N {ke['lammps']:.6f} (LAMMPS) vs {ke['edmd']:.6f} (edmd); "
+            f"{ps['lammps'] / 1e6:.2f} vs {ps['edmd'] / 1e6:.2f} M particle-steps/s"
+        )
+        results.append(r)
+    write_results(args.out, args, results)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,286 @@
+r"""Matrix-of-restitution lookup tables: node values and compiled interpolation (physics.md §4.7).
+
+A table is a tensor-product grid over the three coordinates of physics.md §4.7,
+
+* damping :math:`u_1` (:math:`\zeta_d` for the dashpot, :math:`\delta_v = \beta_v v^{1/5}` for Hertz),
+* velocity softness :math:`\Lambda_v` (the table's box is given in :math:`\log_{10}\Lambda_v`),
+* eccentricity :math:`b = \sin\alpha`,
+
+holding three normalised, :math:`O(1)` outputs: :math:`\psi_c/\tau_{c0} = \Phi/(\Lambda\tan\alpha\,\tau_{c0})`,
+:math:`\tau_c/\tau_{c0}` and :math:`\hat\varepsilon/e_n`, where :math:`\tau_{c0}, e_n` are the central values at
+the same damping. The fourth element needs no table: the termination condition
+:math:`X + cX' = 0` gives :math:`X_c = c\,\hat\varepsilon` exactly, hence :math:`D = 1 - \Lambda c\,\hat\varepsilon`.
+
+Each axis is uniform in a mapped coordinate (``AX_LINEAR``: :math:`x = u`; ``AX_GRAZING``:
+:math:`x = a\,b - \ln(1-b)`, nodes denser towards grazing contacts, where the centrifugal
+parameter :math:`\Lambda\tan^2\alpha` diverges, yet not sparse at central ones) and values are
+interpolated by tensor-product Lagrange polynomials of odd degree ``p`` on the ``p + 1`` nodes
+around the point. Geometry of a table (tuple ``tg`` of 16 numbers): for each axis
+``(map, a, x0, h, n)``, then ``p``.
+"""
+
+import math
+
+import numpy as np
+
+from .jit import hot, jit
+from .contact import MODEL_HERTZ, contact_scales, table_coordinates
+from .twobody import dashpot_central, solve_scaled
+
+AX_LINEAR = 0
+AX_GRAZING = 1
+AX_LOGSHIFT = 2
+
+#: outputs per node: psi_c / tau_c0, tau_c / tau_c0, eps_hat / e_n
+N_OUT = 3
+#: largest interpolation degree
+MAX_DEGREE = 9
+#: shape of the scratch array ``W`` of the lookups (the stencil weights of the three axes)
+SCRATCH_SHAPE = (3, MAX_DEGREE + 1)
+
+
+def _inverse_denominators():
+    """``1 / prod_{m != j} (j - m)`` for the nodes ``0..p`` (row ``p``, column ``j``)."""
+    out = np.zeros((MAX_DEGREE + 1, MAX_DEGREE + 1))
+    for p in range(MAX_DEGREE + 1):
+        for j in range(p + 1):
+            out[p, j] = (-1.0) ** (p - j) / (math.factorial(j) * math.factorial(p - j))
+    return out
+
+
+_INV_DEN = _inverse_denominators()
+
+
+@hot
+def axis_map(kind, a, u):
+    """Mapped coordinate of an axis (see module docstring)."""
+    if kind == AX_GRAZING:
+        return a * u - math.log1p(-u)
+    if kind == AX_LOGSHIFT:
+        return math.log(u + a)
+    return u
+
+
+@hot
+def solver_parameters(model, u1, lam_v, b):
+    r"""From table coordinates to the §4.4 parameters ``(c, Lambda, tan_alpha)`` (physics.md §4.7).
+
+    Dashpot: :math:`c = 2\zeta_d`, :math:`\Lambda = \Lambda_v\sqrt{1-b^2}`; Hertz:
+    :math:`c = \delta_v(1-b^2)^{1/10}`, :math:`\Lambda = \Lambda_v(1-b^2)^{2/5}`; both
+    :math:`\tan\alpha = b/\sqrt{1-b^2}`.
+    """
+    cb2 = (1.0 - b) * (1.0 + b)
+    cb = math.sqrt(cb2)
+    if model == MODEL_HERTZ:
+        return u1 * cb2 ** 0.1, lam_v * cb2 ** 0.4, b / cb
+    return 2.0 * u1, lam_v * cb, b / cb
+
+
+@hot
+def central_values(model, c, ctab, cgeo):
+    r"""Central :math:`(\tau_{c0}, e_n)` at damping ``c`` (physics.md §2.2).
+
+    Dashpot: closed form (§2.2.1, :math:`\zeta_d = c/2`). Hertz: the 1-D table ``ctab`` over
+    :math:`s = \sqrt\delta` (uniform, geometry ``cgeo = (s0, h, n, p)``), in which
+    :math:`\varepsilon(\delta)` and :math:`\tau_c(\delta)` are analytic (physics.md §2.2.2 series in
+    :math:`\delta^{1/2}`).
+    """
+    if model != MODEL_HERTZ:
+        tau, e, _x = dashpot_central(0.5 * c)
+        return tau, e
+    s0, h = cgeo[0], cgeo[1]
+    n, p = int(cgeo[2]), int(cgeo[3])
+    x = (math.sqrt(c) - s0) / h
+    k = int(math.floor(x)) - (p - 1) // 2
+    k = min(max(k, 0), n - p - 1)
+    t = x - k
+    # Lagrange weights on the nodes 0..p, accumulated on the fly (no scratch array here)
+    tau = 0.0
+    e = 0.0
+    for j in range(p + 1):
+        w = _INV_DEN[p, j]
+        for m in range(p + 1):
+            if m != j:
+                w *= t - m
+        tau += w * ctab[k + j, 0]
+        e += w * ctab[k + j, 1]
+    return tau, e
+
+
+@hot
+def _weights(t, p, W, row):
+    """Lagrange weights of the nodes ``0..p`` at ``t`` into ``W[row, :p+1]`` (prefix/suffix products)."""
+    W[row, 0] = 1.0
+    for m in range(p):
+        W[row, m + 1] = W[row, m] * (t - m)
+    suffix = 1.0
+    for j in range(p, -1, -1):
+        W[row, j] *= suffix * _INV_DEN[p, j]
+        suffix *= t - j
+
+
+@hot
+def _stencil(kind, a, u, x0, h, n, p, W, row):
+    """First node of the stencil around ``u`` on one axis; its weights go to ``W[row, :p+1]``.
+
+    Returns ``-1`` outside the axis range (a relative margin of ``1e-12`` is tolerated).
+    """
+    x = (axis_map(kind, a, u) - x0) / h
+    if not (x >= -1e-12 and x <= (n - 1) * (1.0 + 1e-12)):
+        return -1
+    k = int(math.floor(x)) - (p - 1) // 2
+    k = min(max(k, 0), n - p - 1)
+    _weights(x - k, p, W, row)
+    return k
+
+
+@hot
+def _row18(a, w, v, q):
+    """``a + w * v[q:q+18]`` for an 18-tuple ``a`` (one stencil row of a degree-5 table, in registers)."""
+    return (
+        a[0] + w * v[q + 0],
+        a[1] + w * v[q + 1],
+        a[2] + w * v[q + 2],
+        a[3] + w * v[q + 3],
+        a[4] + w * v[q + 4],
+        a[5] + w * v[q + 5],
+        a[6] + w * v[q + 6],
+        a[7] + w * v[q + 7],
+        a[8] + w * v[q + 8],
+        a[9] + w * v[q + 9],
+        a[10] + w * v[q + 10],
+        a[11] + w * v[q + 11],
+        a[12] + w * v[q + 12],
+        a[13] + w * v[q + 13],
+        a[14] + w * v[q + 14],
+        a[15] + w * v[q + 15],
+        a[16] + w * v[q + 16],
+        a[17] + w * v[q + 17],
+    )
+
+
+@jit
+def lookup_normalised(values, tg, u1, lam_v, b, W):
+    """Interpolated normalised outputs at ``(u1, lam_v, b)``; NaNs outside the table.
+
+    ``values``: the node values flattened from C-order ``(n0, n1, n2, 3)``; ``tg``: table
+    geometry; ``W``: scratch ``(3, p + 1)`` float64 (:data:`SCRATCH_SHAPE`). The sum is
+    contracted over the first two axes (each of the ``(p+1)^2`` stencil rows is ``3 (p + 1)``
+    contiguous numbers), then over the last. Degree 5 (the default tables) keeps the 18 partial
+    sums in registers; other degrees accumulate in memory.
+    """
+    p = int(tg[15])
+    n1 = int(tg[9])
+    n2 = int(tg[14])
+    k0 = _stencil(tg[0], tg[1], u1, tg[2], tg[3], int(tg[4]), p, W, 0)
+    k1 = _stencil(tg[5], tg[6], lam_v, tg[7], tg[8], n1, p, W, 1)
+    k2 = _stencil(tg[10], tg[11], b, tg[12], tg[13], n2, p, W, 2)
+    if k0 < 0 or k1 < 0 or k2 < 0:
+        return math.nan, math.nan, math.nan
+    a0 = 0.0
+    a1 = 0.0
+    a2 = 0.0
+    if p == 5:
+        acc = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        for i in range(6):
+            wi = W[0, i]
+            for j in range(6):
+                acc = _row18(acc, wi * W[1, j], values, (((k0 + i) * n1 + k1 + j) * n2 + k2) * N_OUT)
+        for k in range(6):
+            w = W[2, k]
+            a0 += w * acc[N_OUT * k]
+            a1 += w * acc[N_OUT * k + 1]
+            a2 += w * acc[N_OUT * k + 2]
+        return a0, a1, a2
+    for i in range(p + 1):
+        wi = W[0, i]
+        for j in range(p + 1):
+            wij = wi * W[1, j]
+            base = (((k0 + i) * n1 + k1 + j) * n2 + k2) * N_OUT
+            for k in range(p + 1):
+                w = wij * W[2, k]
+                q = base + N_OUT * k
+                a0 += w * values[q]
+                a1 += w * values[q + 1]
+                a2 += w * values[q + 2]
+    return a0, a1, a2
+
+
+@jit
+def lookup(model, values, tg, ctab, cgeo, u1, lam_v, b, W):
+    r"""Matrix of restitution from a table at table coordinates ``(u1, lam_v, b)`` (physics.md §4.5, §4.7).
+
+    Returns ``(Phi, D, tau_c, eps_hat, X_c, psi_c)`` like :func:`~edmd._core.twobody.solve_scaled`
+    (NaNs outside the table's box), with :math:`X_c = c\hat\varepsilon`, :math:`D = 1 - \Lambda X_c`.
+    Elastic contacts (``u1 = 0``) get the exact :math:`\hat\varepsilon = D = 1` (energy conservation).
+    """
+    n0, n1, n2 = lookup_normalised(values, tg, u1, lam_v, b, W)
+    c, lam, tan_a = solver_parameters(model, u1, lam_v, b)
+    tau0, e0 = central_values(model, c, ctab, cgeo)
+    psi = n0 * tau0
+    eps = n2 * e0 if c > 0.0 else 1.0 + 0.0 * n2  # (keeps the NaN of a point outside the box)
+    xc = c * eps
+    return lam * tan_a * psi, 1.0 - lam * xc, n1 * tau0, eps, xc, psi
+
+
+@jit
+def lookup_many(model, values, tg, ctab, cgeo, u1s, lvs, bs, out, W):
+    """:func:`lookup` at many points; ``out[k] = (Phi, D, tau_c, eps_hat, X_c, psi_c)``."""
+    for k in range(u1s.shape[0]):
+        r = lookup(model, values, tg, ctab, cgeo, u1s[k], lvs[k], bs[k], W)
+        for q in range(6):
+            out[k, q] = r[q]
+
+
+@jit
+def matrix_of_restitution(model, a, b, mu, reff, sigma, vn, vt, use_table, values, tg, ctab, cgeo, rtol, W, K):
+    r"""Matrix of restitution of a physical impact, from a table or the direct solver (physics.md §4.5, §4.7).
+
+    The entry point of event-driven callers: contact constants ``(a, b)`` (see
+    :mod:`edmd._core.contact`), pair constants, normal and tangential impact speeds. With
+    ``use_table`` the table is interpolated and the direct solver (tolerance ``rtol``) takes
+    over outside its box; otherwise the solver is used. ``W``: scratch ``(3, p + 1)``; ``K``:
+    scratch ``(13, 3)``.
+
+    Returns ``(Phi, D, t_c, eps_hat, from_table)`` with the physical contact duration ``t_c``.
+    """
+    c, lam, ts, _ls = contact_scales(model, a, b, mu, reff, sigma, vn)
+    if use_table:
+        v = math.sqrt(vn * vn + vt * vt)
+        u1, lam_v = table_coordinates(model, a, b, mu, reff, sigma, v)
+        r = lookup(model, values, tg, ctab, cgeo, u1, lam_v, vt / v, W)
+        if r[2] == r[2]:
+            return r[0], r[1], r[2] * ts, r[3], True
+    r = solve_scaled(model, c, lam, vt / vn, rtol, K)
+    return r[0], r[1], r[2] * ts, r[3], False
+
+
+@jit
+def direct_many(model, u1s, lvs, bs, rtol, out, K):
+    """Direct solves at table coordinates ``(u1s[k], lvs[k], bs[k])``; ``out[k]`` as in :func:`lookup_many`."""
+    for k in range(u1s.shape[0]):
+        c, lam, tan_a = solver_parameters(model, u1s[k], lvs[k], bs[k])
+        r = solve_scaled(model, c, lam, tan_a, rtol, K)
+        for q in range(6):
+            out[k, q] = r[q]
+
+
+@jit
+def node_values(model, u1s, lvs, bs, rtol, out, K):
+    """Normalised outputs at the nodes ``u1s x lvs x bs`` (a slab of a table's grid) into ``out``.
+
+    Direct solves at relative tolerance ``rtol``; central values from the direct solver
+    (Hertz) or the closed form (dashpot).
+    """
+    for i in range(u1s.shape[0]):
+        for j in range(lvs.shape[0]):
+            for k in range(bs.shape[0]):
+                c, lam, tan_a = solver_parameters(model, u1s[i], lvs[j], bs[k])
+                _phi, _d, tau, eps, _xc, psi = solve_scaled(model, c, lam, tan_a, rtol, K)
+                if model == MODEL_HERTZ:
+                    _p0, _d0, tau0, e0, _x0, _s0 = solve_scaled(model, c, 0.0, 0.0, rtol, K)
+                else:
+                    tau0, e0, _x0 = dashpot_central(0.5 * c)
+                out[i, j, k, 0] = psi / tau0
+                out[i, j, k, 1] = tau / tau0
+                out[i, j, k, 2] = eps / e0
