@@ -16,7 +16,7 @@ the plane with spin along :math:`z`; the 3D formulas then reduce exactly to the 
 
 The energy lost is booked as the exact before/after difference of the particles' kinetic
 (translational + rotational) energies for rough rules and walls, and by the closed form
-:math:`-\tfrac12\mu(1-e_n^2)g_n^2` for smooth particle pairs, so kinetic + potential +
+:math:`-\\tfrac12\\mu(1-e_n^2)g_n^2` for smooth particle pairs, so kinetic + potential +
 dissipated energy is conserved to round-off whatever the rule. ``last_collision`` (the TC
 memory) is only kept when the TC model is on.
 """
