@@ -23,6 +23,8 @@ from importlib import resources
 import numpy as np
 
 from ._core import layout as L
+from .contact import ContactModel, Hertz, LinearDashpot
+from .emdstar import EMDStar
 
 
 class RuleError(ValueError):
@@ -108,6 +110,8 @@ class Viscoelastic:
 def _normal_law(e_n) -> tuple[int, float]:
     if isinstance(e_n, Viscoelastic):
         return L.NORMAL_VISCO, 1.0
+    if isinstance(e_n, ContactModel):
+        return L.NORMAL_SOFT, 1.0
     return L.NORMAL_CONST, _check_range("e_n", e_n, 0.0, 1.0)
 
 
@@ -147,9 +151,9 @@ class Inelastic:
 
 @dataclasses.dataclass(frozen=True)
 class _NormalTangential:
-    """Normal law (number or :class:`Viscoelastic`) and tangential law (``beta``/``e_t``, ``mu``)."""
+    """Normal law (number, :class:`Viscoelastic` or a soft contact law) and tangential law (``beta``/``e_t``, ``mu``)."""
 
-    e_n: float | Viscoelastic = 1.0
+    e_n: float | Viscoelastic | ContactModel = 1.0
     beta: float | None = None
     e_t: float | None = None
     mu: float | None = None
@@ -201,6 +205,8 @@ class TC:
     def __post_init__(self):
         if isinstance(self.rule, TC):
             raise RuleError("TC cannot wrap another TC")
+        if isinstance(self.rule, EMDStar):
+            raise RuleError("the TC model does not apply to eMD* (its soft contacts already last t_c)")
         if not (math.isfinite(self.duration) and self.duration > 0):
             raise RuleError(f"TC duration must be positive, got {self.duration!r}")
 
@@ -212,8 +218,10 @@ class TC:
 class Wall(_NormalTangential):
     """Restitution of the hard walls that close every non-periodic axis (physics.md §1.3).
 
-    ``e_n`` (a number or :class:`Viscoelastic`, with :math:`\\mu = m_i`, :math:`R_{\\rm eff} = R_i`),
-    ``beta``/``e_t`` and ``mu`` as for :class:`Rough`; the default is an elastic smooth wall.
+    ``e_n`` (a number, :class:`Viscoelastic`, or a soft contact law :class:`~edmd.contact.Hertz` /
+    :class:`~edmd.contact.LinearDashpot` whose central :math:`e_n(v_n)` applies; always with
+    :math:`\\mu = m_i`, :math:`R_{\\rm eff} = R_i`), ``beta``/``e_t`` and ``mu`` as for :class:`Rough`;
+    the default is an elastic smooth wall (with :class:`~edmd.emdstar.EMDStar`: the rule's contact law).
 
     Example:
         >>> Wall(e_n=0.8).e_n
@@ -222,16 +230,33 @@ class Wall(_NormalTangential):
 
 
 
-Rule = Inelastic | Rough | Viscoelastic | TC
+Rule = Inelastic | Rough | Viscoelastic | TC | EMDStar
 
 
 def rule_laws(rule) -> tuple[tuple[int, float], tuple[int, float, float]]:
     """``((normal_code, e_n), (tangent_code, beta, mu))`` of a rule."""
     if isinstance(rule, Viscoelastic):
         return _normal_law(rule), (L.TANGENT_SMOOTH, -1.0, 0.0)
+    if isinstance(rule, EMDStar):  # instantaneous fallbacks use the contact law's e_n(v_n)
+        return _normal_law(rule.contact), (L.TANGENT_SMOOTH, -1.0, 0.0)
     if isinstance(rule, (Inelastic, Rough, TC)):
         return rule.laws()
-    raise RuleError(f"not a collision rule: {rule!r} (use Inelastic, Rough, Viscoelastic or TC)")
+    raise RuleError(f"not a collision rule: {rule!r} (use Inelastic, Rough, Viscoelastic, TC or EMDStar)")
+
+
+def default_wall(rule) -> Wall:
+    """Walls of a simulation that names none: elastic, or the contact law of an eMD* rule."""
+    return Wall(e_n=rule.contact) if isinstance(rule, EMDStar) else Wall()
+
+
+def soft_contact(rule, wall) -> ContactModel | None:
+    """The soft contact law of an eMD* rule or of walls (at most one per simulation)."""
+    inner = rule.rule if isinstance(rule, TC) else rule
+    laws = (getattr(inner, "contact", None), getattr(inner, "e_n", None), wall.e_n)
+    found = {obj for obj in laws if isinstance(obj, ContactModel)}
+    if len(found) > 1:
+        raise RuleError("the eMD* rule and the walls must share one soft contact law")
+    return found.pop() if found else None
 
 
 def materials(rule, wall) -> list[Viscoelastic]:
@@ -261,6 +286,15 @@ def pack(rule, wall: Wall, fp: np.ndarray, ip: np.ndarray):
         fp[L.FP_VISCO_K] = mats[0].stiffness_factor
         fp[L.FP_VISCO_A] = mats[0].A
     fp[L.FP_ETAB_INV] = viscoelastic_table()[1]
+    soft = soft_contact(rule, wall)
+    if soft is not None:
+        ip[L.IP_EMD_MODEL] = soft.code
+        fp[L.FP_SOFT_A], fp[L.FP_SOFT_B] = soft.constants()
+    if isinstance(rule, EMDStar):
+        ip[L.IP_EMD] = 1
+        ip[L.IP_EMD_TABLE] = int(rule.tables != "exact")
+        ip[L.IP_EMD_COMM] = int(rule.communication)
+        fp[L.FP_EMD_RTOL] = rule.rtol
 
 
 def uses_rotation(rule, wall: Wall) -> bool:
@@ -268,7 +302,7 @@ def uses_rotation(rule, wall: Wall) -> bool:
     return rule_laws(rule)[1][0] != L.TANGENT_SMOOTH or wall.laws()[1][0] != L.TANGENT_SMOOTH
 
 
-_KINDS = {cls.__name__: cls for cls in (Inelastic, Rough, Viscoelastic, TC, Wall)}
+_KINDS = {cls.__name__: cls for cls in (Inelastic, Rough, Viscoelastic, TC, Wall, EMDStar, Hertz, LinearDashpot)}
 
 
 def to_dict(obj) -> dict:

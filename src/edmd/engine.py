@@ -20,8 +20,9 @@ from ._core import layout as L
 from ._core.cells import grid_shape, new_grid
 from ._core.loop import run_events, setup_events
 from ._core.queue import calendar_shape, new_queue, queue_build
-from ._core.snapshot import kinetic_energy_at, stream_all
+from ._core.snapshot import stream_all
 from . import collide
+from .emdstar import EMDStar, emd_bundle
 from .state import State, StateError
 
 
@@ -91,7 +92,8 @@ class Engine:
         self.fp = np.zeros(L.N_FP)
         self.ip = np.zeros(L.N_IP, np.int64)
         self.rule = collide.Inelastic(1.0) if rule is None else rule
-        self.wall = collide.Wall() if wall is None else wall
+        self.wall = collide.default_wall(self.rule) if wall is None else wall
+        self.emd_rule = self.rule if isinstance(self.rule, EMDStar) else None
         collide.pack(self.rule, self.wall, self.fp, self.ip)
         self.etab = collide.viscoelastic_table()[0]
         self.ip[L.IP_WALLS] = sum(1 << k for k in range(self.dim) if not self.periodic[k])
@@ -167,6 +169,7 @@ class Engine:
         image[:, : self.dim] = state.image[order]
         tlast = state.last_collision[order] - self.t_origin
         self.part = (P, state.mass[order].copy(), omega, state.inertia[order].copy(), image, np.zeros(n, np.int32), tlast)
+        self.emd = emd_bundle(n, self.emd_rule, self._pending_arrays(state, order))
         self.ev = (
             np.full(n, np.inf),
             np.full(n, -1, np.int32),
@@ -175,6 +178,20 @@ class Engine:
             np.zeros(n, np.int32),
         )
         self._rebuild()
+
+    def _pending_arrays(self, state: State, order: np.ndarray):
+        """Pending eMD* contacts of ``state`` in internal order (``None``: nothing pending)."""
+        if not state.has_pending:
+            return None
+        if self.emd_rule is None:
+            raise StateError("the state has pending eMD* contacts: simulate it with the EMDStar rule it came from")
+        inv = np.empty(self.n, np.int64)
+        inv[order] = np.arange(self.n)
+        dv = np.zeros((self.n, 3))
+        dv[:, : self.dim] = state.pending_velocity[order]
+        partner = state.pending_partner[order]
+        pj = np.where(partner >= 0, inv[np.maximum(partner, 0)], -1).astype(np.int32)
+        return dv, state.pending_until[order] - self.t_origin, pj
 
     def _trim_lists(self):
         """Shrink list rows to the fullest list plus a margin (lists grow again on overflow)."""
@@ -203,7 +220,7 @@ class Engine:
             cap = max(self.list_capacity, 1) if self.mode == "list" else 1
             nl = n if self.mode == "list" else 1
             self.lists = (np.zeros((nl, cap), np.int32), np.zeros(nl, np.int32), np.zeros((nl, 3)))
-            if setup_events(self.part, self.ev, self.grid, self.lists, geo, self.fp, self.ip, self.cbuf, 0.0):
+            if setup_events(self.part, self.ev, self.grid, self.lists, geo, self.fp, self.ip, self.cbuf, self.emd, 0.0):
                 break
             self.list_capacity = int(self.list_capacity * 1.5) + 4
         if self.mode == "list":
@@ -214,8 +231,9 @@ class Engine:
         queue_build(self.q, keys, 0.0, width, nb)
         self.acc[L.A_NOW] = 0.0
         self.acc[L.A_LAST_T] = 0.0
-        self.acc[L.A_KE] = kinetic_energy_at(self.part[0], self.part[1], 0.0, self.geo)
-        self.acc[L.A_PX : L.A_PZ + 1] = self.part[1] @ self.part[0][:, L.VX : L.VZ + 1]
+        committed = self.part[0][:, L.VX : L.VZ + 1] + self.emd[0]  # particles are all at local time 0
+        self.acc[L.A_KE] = 0.5 * float(self.part[1] @ np.sum(committed**2, axis=1))
+        self.acc[L.A_PX : L.A_PZ + 1] = self.part[1] @ committed
         self.events_at_sync = int(self.cnt[L.C_EVENTS])
 
     # ------------------------------------------------------------------ running
@@ -228,7 +246,7 @@ class Engine:
         """Compile the event loop now (a call that processes no event), so that timings exclude it."""
         run_events(
             self.part, self.ev, self.q, self.grid, self.lists, self.geo, self.fp, self.ip,
-            self.acc, self.cnt, self.clog, self.cbuf, self.etab, -math.inf, 0,
+            self.acc, self.cnt, self.clog, self.cbuf, self.etab, self.emd, -math.inf, 0,
         )  # fmt: skip
 
     def advance(self, t_stop: float, max_events: int | float = math.inf) -> int:
@@ -248,7 +266,7 @@ class Engine:
             before = int(self.cnt[L.C_EVENTS])
             status = run_events(
                 self.part, self.ev, self.q, self.grid, self.lists, geo, self.fp, self.ip,
-                self.acc, self.cnt, self.clog, self.cbuf, self.etab, t_stop - self.t_origin, chunk,
+                self.acc, self.cnt, self.clog, self.cbuf, self.etab, self.emd, t_stop - self.t_origin, chunk,
             )  # fmt: skip
             budget -= int(self.cnt[L.C_EVENTS]) - before
             if status == L.ST_LOG_FULL:
@@ -325,8 +343,22 @@ class Engine:
             image=image[inv, :d],
             periodic=self.periodic,
             last_collision=self.part[6][inv] + self.t_origin,
+            pending_velocity=self.emd[0][inv, :d],
+            pending_until=self.emd[1][inv] + self.t_origin,
+            pending_partner=np.where(self.emd[2][inv] >= 0, self.tag[np.maximum(self.emd[2][inv], 0)], -1),
             check_overlaps=False,
         )
+
+    def emd_counters(self) -> dict[str, int]:
+        """eMD* counters (physics.md §4.8): contacts handled by A/B events, exceptions a) and b),
+        instantaneous fallbacks, and B events executed on schedule."""
+        c = self.cnt
+        return {
+            "emd_contacts": int(c[L.C_EMD_A]),
+            "emd_exceptions_a": int(c[L.C_EMD_EXC_A]),
+            "emd_exceptions_b": int(c[L.C_EMD_EXC_B]),
+            "emd_fallbacks": int(c[L.C_EMD_FALLBACK]),
+        }
 
     def _kinetic_tail(self, t_local: float) -> float:
         """Integral of the translational kinetic energy from the last energy-changing event to ``t_local``.

@@ -90,7 +90,7 @@ def plot_snapshot(state: State, color_by: str = "speed", ax=None, slab: float | 
     ax = axes(ax, figsize=(5.5, 5.0))
     keep = np.ones(state.n, bool) if state.dim == 2 else _slab(state, slab, slab_centre)
     if color_by == "speed":
-        values = np.linalg.norm(state.velocity, axis=1)
+        values = np.linalg.norm(state.committed_velocity, axis=1)
     else:
         w = state.angular_velocity
         values = w if state.dim == 2 else np.linalg.norm(w, axis=1)

@@ -62,6 +62,15 @@ class State:
             closed by hard walls at :math:`\pm L/2`.
         last_collision: ``(N,)`` time of each particle's last collision (``-inf``: none yet), the
             memory of the TC model.
+        pending_velocity: ``(N, d)`` eMD* post-collisional increments not yet applied (zeros
+            where no contact is pending; physics.md §4.8).
+        pending_until: ``(N,)`` time of each particle's pending eMD* B event (``inf``: none).
+        pending_partner: ``(N,)`` partner of the pending contact (``-1``: none).
+
+    While eMD* contacts are pending, ``velocity`` is the actual flight velocity (the pair's
+    centre-of-mass velocity) and observables (:meth:`kinetic_energy`, :meth:`temperature`,
+    :meth:`momentum`) use :attr:`committed_velocity` = ``velocity + pending_velocity``. Overlaps
+    are not checked in states with pending contacts (partners overlap by design).
 
     Example:
         >>> s = State(position=[[0.0, 0.0], [1.5, 0.0]], velocity=[[1.0, 0.0], [0.0, 0.0]],
@@ -81,6 +90,9 @@ class State:
     image: np.ndarray | None = None
     periodic: np.ndarray | None = None
     last_collision: np.ndarray | None = None
+    pending_velocity: np.ndarray | None = None
+    pending_until: np.ndarray | None = None
+    pending_partner: np.ndarray | None = None
     check_overlaps: dataclasses.InitVar[bool] = True
 
     def __post_init__(self, check_overlaps: bool = True):
@@ -118,9 +130,29 @@ class State:
         if last.shape != (n,) or np.any(np.isnan(last)) or np.any(last == np.inf):
             raise StateError(f"last_collision must be {n} times (or -inf), got shape {last.shape}")
         self.last_collision = last
+        self._set_pending(n, d)
         self._check_values()
-        if check_overlaps:
+        if check_overlaps and not self.has_pending:
             self.check_no_overlap()
+
+    def _set_pending(self, n, d):
+        dv = np.zeros((n, d)) if self.pending_velocity is None else self.pending_velocity
+        self.pending_velocity = _as_float("pending_velocity", dv, (n, d))
+        until = np.full(n, np.inf) if self.pending_until is None else np.array(self.pending_until, np.float64)
+        partner = np.full(n, -1) if self.pending_partner is None else np.asarray(self.pending_partner)
+        if until.shape != (n,) or partner.shape != (n,) or not np.issubdtype(partner.dtype, np.integer):
+            raise StateError(f"pending_until and pending_partner must have shape ({n},) (partner: integers)")
+        has = partner >= 0
+        bad = np.flatnonzero((partner < -1) | (partner >= n) | (partner == np.arange(n)) | (has != np.isfinite(until)) | np.isnan(until))
+        bad = np.union1d(bad, np.flatnonzero(~has & np.any(self.pending_velocity != 0.0, axis=1)))
+        if bad.size:
+            i = int(bad[0])
+            raise StateError(
+                f"inconsistent pending eMD* contact of particle {i}: partner {int(partner[i])}, B event at "
+                f"{until[i]!r}, increment {self.pending_velocity[i].tolist()} (a partner in [0, N) needs a finite time)"
+            )
+        self.pending_until = until
+        self.pending_partner = partner.astype(np.int64)
 
     # ------------------------------------------------------------------ checks
     def _check_values(self):
@@ -214,9 +246,19 @@ class State:
         r"""Packing fraction :math:`\eta = \sum_i v_i / V`."""
         return float(self.particle_volume().sum() / self.volume)
 
+    @property
+    def has_pending(self) -> bool:
+        """Whether eMD* contacts are pending (some particle awaits its B event)."""
+        return bool(np.any(self.pending_partner >= 0))
+
+    @property
+    def committed_velocity(self) -> np.ndarray:
+        r"""Velocities with pending eMD* increments applied, :math:`\mathbf v_i + \boldsymbol\Delta_i` (physics.md §4.8)."""
+        return self.velocity + self.pending_velocity
+
     def kinetic_energy(self) -> float:
-        """Translational kinetic energy."""
-        return 0.5 * float(np.sum(self.mass[:, None] * self.velocity**2))
+        """Translational kinetic energy (of the committed velocities)."""
+        return 0.5 * float(np.sum(self.mass[:, None] * self.committed_velocity**2))
 
     def rotational_energy(self) -> float:
         """Rotational kinetic energy."""
@@ -235,13 +277,13 @@ class State:
         return -float(self.mass @ (self.unwrapped_position @ g))
 
     def momentum(self) -> np.ndarray:
-        """Total linear momentum."""
-        return (self.mass[:, None] * self.velocity).sum(axis=0)
+        """Total linear momentum (of the committed velocities)."""
+        return (self.mass[:, None] * self.committed_velocity).sum(axis=0)
 
     def temperature(self) -> float:
         r"""Translational granular temperature :math:`T = \frac{1}{dN}\sum_i m_i|\mathbf v_i-\mathbf u|^2` (:math:`k_B=1`)."""
         u = self.momentum() / self.mass.sum()
-        return float(np.sum(self.mass[:, None] * (self.velocity - u) ** 2) / (self.dim * self.n))
+        return float(np.sum(self.mass[:, None] * (self.committed_velocity - u) ** 2) / (self.dim * self.n))
 
     def copy(self) -> State:
         """Deep copy."""

@@ -24,8 +24,10 @@ memory) is only kept when the TC model is on.
 import math
 
 from . import layout as L
+from .contact import MODEL_HERTZ, contact_scales
 from .jit import hot
 from .predict import wrap3
+from .twobody import dashpot_central
 
 
 @hot
@@ -55,14 +57,23 @@ def eps_viscoelastic(delta, etab, inv_ds):
 
 
 @hot
-def normal_restitution(law, e_const, vn, mu_red, r_eff, fp, etab):
+def normal_restitution(law, e_const, vn, mu_red, r_eff, fp, ip, etab):
     r"""Normal restitution of an impact at normal speed ``vn``.
 
     Viscoelastic (physics.md §2.2.2): :math:`\rho = \frac{2Y\sqrt{R_{\rm eff}}}{3(1-\nu^2)}`,
     :math:`\beta_v = \tfrac32 A(\rho/\mu)^{2/5}`, :math:`e_n = \varepsilon(\beta_v v_n^{1/5})`.
+    ``NORMAL_SOFT``: the central :math:`e_n(v_n)` of the soft contact law ``ip[IP_EMD_MODEL]``
+    with constants ``fp[FP_SOFT_A/B]`` (Hertz as above, dashpot :math:`e^{-\zeta_d\omega_0t_c}` of §2.2.1),
+    the instantaneous rule of eMD* fallbacks and walls (physics.md §4.8).
     """
     if law == L.NORMAL_CONST:
         return e_const
+    if law == L.NORMAL_SOFT:
+        model = ip[L.IP_EMD_MODEL]
+        c, _lam, _ts, _ls = contact_scales(model, fp[L.FP_SOFT_A], fp[L.FP_SOFT_B], mu_red, r_eff, 1.0, vn)
+        if model == MODEL_HERTZ:
+            return eps_viscoelastic(c, etab, fp[L.FP_ETAB_INV])
+        return dashpot_central(0.5 * c)[1]
     rho = fp[L.FP_VISCO_K] * math.sqrt(r_eff)
     delta = 1.5 * fp[L.FP_VISCO_A] * (rho / mu_red) ** 0.4 * vn**0.2
     return eps_viscoelastic(delta, etab, fp[L.FP_ETAB_INV])
@@ -154,7 +165,7 @@ def collide_pair(t, P, mass, omega, inertia, tlast, i, j, geo, fp, ip, etab, acc
         beta = -1.0
         cnt[L.C_TC_ELASTIC] += 1
     else:
-        e = normal_restitution(ip[L.IP_NORMAL], fp[L.FP_EN], -gn, 1.0 / inv_mu, ri * rj / (ri + rj), fp, etab)
+        e = normal_restitution(ip[L.IP_NORMAL], fp[L.FP_EN], -gn, 1.0 / inv_mu, ri * rj / (ri + rj), fp, ip, etab)
     jx, jy, jz, vn, vt = impulse(nx, ny, nz, gx, gy, gz, wx, wy, wz, inv_mu, inv_mt, e, beta, fp[L.FP_MU], tangent)
     if spin:
         k0 = _energy(P, mass, omega, inertia, i, False) + _energy(P, mass, omega, inertia, j, False)
@@ -206,7 +217,7 @@ def collide_wall(t, P, mass, omega, inertia, tlast, i, axis, face, fp, ip, etab,
         e = 1.0
         beta = -1.0
     else:
-        e = normal_restitution(ip[L.IP_WALL_NORMAL], fp[L.FP_WALL_EN], -gn, mi, ri, fp, etab)
+        e = normal_restitution(ip[L.IP_WALL_NORMAL], fp[L.FP_WALL_EN], -gn, mi, ri, fp, ip, etab)
     jx, jy, jz, vn, vt = impulse(
         nx, ny, nz, gx, gy, gz, ri * omega[i, 0], ri * omega[i, 1], ri * omega[i, 2],
         inv_mu, inv_mt, e, beta, fp[L.FP_WALL_MU], tangent,

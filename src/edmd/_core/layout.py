@@ -14,7 +14,7 @@ AUX_NONE = 0
 AUX_SHELL = 1  # particle leaves the shell of its neighbour list
 AUX_CELL = 2  # cell crossing: AUX_CELL + 2 * axis + (0 lower face, 1 upper face)
 AUX_WALL = 8  # hard wall: AUX_WALL + 2 * axis + (0 lower wall, 1 upper wall)
-AUX_B = 64  # eMD* type-B event
+AUX_B = 64  # eMD* type-B event (the particle takes its post-collisional velocity)
 
 # neighbour structure
 NB_LIST = 0
@@ -42,7 +42,12 @@ ST_OVERLAP = 6  # debug mode found an overlap or a contact away from sigma
     C_BAD_I,  # debug: offending pair
     C_BAD_J,
     C_TC_ELASTIC,  # collisions made elastic by the TC model
-) = range(11)
+    C_EMD_A,  # eMD*: soft contacts handled by an A event (relocation) and two B events
+    C_EMD_EXC_A,  # eMD* exception a): the relocation would overlap a third particle or a wall
+    C_EMD_EXC_B,  # eMD* exception b): a particle with a pending B event reached a new contact
+    C_EMD_FALLBACK,  # eMD*: contacts resolved by the instantaneous rule (exception a, overlapping pairs)
+    C_EMD_B,  # eMD*: B events executed on schedule
+) = range(16)
 N_COUNTERS = 16
 
 # float accumulators (acc array)
@@ -57,9 +62,11 @@ N_COUNTERS = 16
     A_PZ,
     A_NOW,  # time of the last processed event (local)
     A_BAD,  # debug: relative contact error
-) = range(10)
-A_WALL = 10  # A_WALL + 2 * axis + face: normal momentum given to each wall (face 0 lower, 1 upper)
-N_ACC = 16
+    A_EMD_VN,  # eMD*: impact speeds of the last A event (for the collision log)
+    A_EMD_VT,
+) = range(12)
+A_WALL = 12  # A_WALL + 2 * axis + face: normal momentum given to each wall (face 0 lower, 1 upper)
+N_ACC = 18
 
 # integer parameters (ip array)
 (
@@ -73,7 +80,11 @@ N_ACC = 16
     IP_WALL_NORMAL,  # laws for wall collisions
     IP_WALL_TANGENT,
     IP_WALLS,  # bit k set: axis k is closed by walls
-) = range(10)
+    IP_EMD,  # eMD* (physics.md §4.8) for particle pairs
+    IP_EMD_MODEL,  # soft contact model of eMD* and of the NORMAL_SOFT law (contact.MODEL_*)
+    IP_EMD_TABLE,  # eMD*: interpolate the matrix of restitution (1) or always solve (0)
+    IP_EMD_COMM,  # eMD*: post-collisional communication in exception b)
+) = range(14)
 N_IP = 16
 
 # float parameters (fp array)
@@ -91,10 +102,14 @@ N_IP = 16
     FP_WALL_BETA,
     FP_WALL_MU,
     FP_MTOT,  # total mass
-) = range(13)
+    FP_SOFT_A,  # soft contact law constants (a, b) of :mod:`.contact`
+    FP_SOFT_B,
+    FP_EMD_RTOL,  # eMD*: tolerance of the direct two-body solver
+) = range(16)
 N_FP = 16
 
 NORMAL_CONST, NORMAL_VISCO = 0, 1
+NORMAL_SOFT = 2  # central e_n(v_n) of the soft contact law (IP_EMD_MODEL, FP_SOFT_A/B)
 TANGENT_SMOOTH, TANGENT_BETA, TANGENT_COULOMB = 0, 1, 2
 
 # geometry scalars passed to the compiled core as one tuple of floats (no array references

@@ -23,8 +23,9 @@ from .jit import hot, jit
 from . import layout as L
 from .cells import cell_block, cell_insert, cell_of_point, cell_remove, crossing_time
 from .collide import collide_pair, collide_wall
-from .nblist import build_lists, rebuild_list, shell_exit_time
-from .predict import INF, advance, contact_time, flight, gap_time, relative_to, separation
+from .emdstar import contact_map, execute_b, is_pending, relocation_blocked
+from .nblist import SQRT3, build_lists, rebuild_list, shell_exit_time
+from .predict import INF, advance, contact_time, flight, gap_time, relative_to, separation, wrap3
 from .queue import queue_top, queue_update
 
 
@@ -121,8 +122,8 @@ def _wall_event(i, t, P, geo, walls, best, kind):
 
 
 @hot
-def predict_aux(i, t, P, ev, grid, lists, geo, mode, fp, ip):
-    """Earliest single-particle event of ``i``: shell exit (lists) or cell crossing (cells), or a wall."""
+def predict_aux(i, t, P, ev, grid, lists, geo, mode, fp, ip, ptb):
+    """Earliest single-particle event of ``i``: shell exit (lists) or cell crossing (cells), a wall, or its eMD* B event (``ptb``)."""
     if mode == L.NB_LIST:
         ev[3][i] = shell_exit_time(P, i, t, lists, geo, fp[L.FP_SKIN])
         ev[4][i] = L.AUX_SHELL
@@ -133,6 +134,9 @@ def predict_aux(i, t, P, ev, grid, lists, geo, mode, fp, ip):
         best, kind = _wall_event(i, t, P, geo, walls, ev[3][i] - t, ev[4][i])
         ev[3][i] = t + best
         ev[4][i] = kind
+    if ptb[i] < ev[3][i]:
+        ev[3][i] = ptb[i]
+        ev[4][i] = L.AUX_B
 
 
 @hot
@@ -156,14 +160,18 @@ def _bad_contact(p, k, t, P, geo, tol, acc, cnt, exact):
 
 
 @jit
-def _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf):
+def _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf, contact_only):
     """Debug mode: the colliding pair touches (|r_ij| = sigma) and neither partner overlaps a candidate.
+
+    ``contact_only`` (eMD*, where partners of soft contacts overlap by design) skips the second test.
 
     Records the offending pair in ``cnt[C_BAD_I/J]`` and the relative error in ``acc[A_BAD]``.
     """
     tol = fp[L.FP_DEBUG_TOL]
     if _bad_contact(i, j, t, P, geo, tol, acc, cnt, True):
         return False
+    if contact_only:
+        return True
     for p in (np.int64(i), np.int64(j)):
         if mode == L.NB_LIST:
             for s in range(lists[1][p]):
@@ -181,10 +189,10 @@ def _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf):
 
 
 @hot
-def _repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf):
+def _repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb):
     """Both candidate events of ``i`` after its flight changed, and its calendar key."""
     predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
-    predict_aux(i, t, P, ev, grid, lists, geo, mode, fp, ip)
+    predict_aux(i, t, P, ev, grid, lists, geo, mode, fp, ip, ptb)
     _requeue(q, ev, i)
 
 
@@ -248,19 +256,124 @@ def integrate_kinetic(acc, t, geo, total_mass):
     acc[L.A_LAST_T] = t
 
 
+@hot
+def _log_collision(clog, cnt, log_cap, t, i, j, vn, vt):
+    if log_cap > 0:
+        r = cnt[L.C_LOG]
+        clog[r, 0] = t
+        clog[r, 1] = i
+        clog[r, 2] = j
+        clog[r, 3] = vn
+        clog[r, 4] = vt
+        cnt[L.C_LOG] = r + 1
+
+
 @jit
-def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, etab, t_stop, max_events):
+def _rebin(p, t, P, image, grid, lists, geo, mode, fp, cbuf):
+    """Keep neighbour structures valid after ``p`` jumped (eMD* relocation, physics.md §1.4, §4.8).
+
+    Cells: re-bin by position. Lists: rebuild the list if ``p`` left the cube inscribed in its
+    shell. Returns ``False`` if a list ran out of capacity.
+    """
+    _wrap_into_box(P, image, p, geo)
+    if mode != L.NB_LIST:
+        c = cell_of_point(P[p, L.X], P[p, L.Y], P[p, L.Z], geo, grid)
+        if c != grid[2][p]:
+            cell_remove(grid, p)
+            cell_insert(grid, p, c)
+        return True
+    centre = lists[2]
+    h = 0.5 * fp[L.FP_SKIN] / SQRT3
+    dx, dy, dz = wrap3(P[p, L.X] - centre[p, 0], P[p, L.Y] - centre[p, 1], P[p, L.Z] - centre[p, 2], geo)
+    if max(abs(dx), abs(dy), abs(dz)) <= h:
+        return True
+    return rebuild_list(p, P, grid, lists, geo, fp[L.FP_SKIN], cbuf)
+
+
+@jit
+def _emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt, cbuf, emd):
+    """A pair ``(i, j)`` (streamed to ``t``) reaches contact under eMD* (physics.md §4.8).
+
+    Exception b) first: pending B events of either partner are executed now (and, with
+    post-collisional communication, those of their former partners); if the pair no longer
+    approaches, the contact is discarded (returns 0). Then the A event: matrix of restitution,
+    relocation unless it would overlap a third particle or a wall (exception a), pending
+    increments and B events at ``t + t_c`` (returns 1). Exception a), overlapping pairs and
+    failed solves fall back to the instantaneous rule with the contact law's central
+    :math:`e_n(v_n)` (returns 2). Returns ``-1`` if a neighbour list ran out of capacity.
+    """
+    P, mass, omega, inertia, image, count, tlast = part
+    pdv, ptb, pj = emd[0], emd[1], emd[2]
+    if is_pending(emd, i) or is_pending(emd, j):
+        cnt[L.C_EMD_EXC_B] += 1
+        for p in (np.int64(i), np.int64(j)):
+            if is_pending(emd, p):
+                other = pj[p]
+                execute_b(p, t, P, count, emd, geo)
+                if ip[L.IP_EMD_COMM] and other != i and other != j and pj[other] == p:
+                    execute_b(other, t, P, count, emd, geo)
+                    _repredict(other, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb)
+        dx, dy, dz, gx, gy, gz = separation(P, i, j, t, geo)
+        if dx * gx + dy * gy + dz * gz >= 0.0:
+            return 0
+    dx, dy, dz, gx, gy, gz = separation(P, i, j, t, geo)
+    sigma = P[i, L.R] + P[j, L.R]
+    if dx * dx + dy * dy + dz * dz < (sigma * (1.0 - 1e-9)) ** 2:
+        return 2  # overlapping and approaching: no contact geometry to start from
+    tc, lost, vn, vt = contact_map(i, j, P, mass, geo, fp, ip, emd)
+    if not tc == tc:
+        return 2
+    work = emd[9]
+    walls = ip[L.IP_WALLS]
+    ri, rj = P[i, L.R], P[j, L.R]
+    if relocation_blocked(work[4, 0], work[4, 1], work[4, 2], ri, i, j, t, P, grid, geo, walls, cbuf) or relocation_blocked(
+        work[5, 0], work[5, 1], work[5, 2], rj, i, j, t, P, grid, geo, walls, cbuf
+    ):
+        cnt[L.C_EMD_EXC_A] += 1
+        return 2
+    jn = 0.0  # virial r_ij . J with the impulse J on i over the whole contact
+    for k in range(3):
+        jk = mass[i] * (work[6, k] + work[7, k] - P[i, L.VX + k])
+        jn += (work[0, k] - work[1, k]) * jk
+        P[i, L.X + k] = work[4, k]
+        P[j, L.X + k] += work[5, k] - work[1, k]  # (in j's own periodic frame)
+        P[i, L.VX + k] = work[6, k]
+        P[j, L.VX + k] = work[6, k]
+        pdv[i, k] = work[7, k]
+        pdv[j, k] = work[8, k]
+    ptb[i] = t + tc
+    ptb[j] = t + tc
+    pj[i] = j
+    pj[j] = i
+    acc[L.A_VIRIAL] += jn
+    acc[L.A_KE] -= lost
+    acc[L.A_DISSIPATED] += lost
+    cnt[L.C_EMD_A] += 1
+    acc[L.A_EMD_VN] = vn
+    acc[L.A_EMD_VT] = vt
+    if not _rebin(i, t, P, image, grid, lists, geo, mode, fp, cbuf):
+        return -1
+    if not _rebin(j, t, P, image, grid, lists, geo, mode, fp, cbuf):
+        return -1
+    return 1
+
+
+@jit
+def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, etab, emd, t_stop, max_events):
     """Process events in time order until ``t_stop`` (exclusive) or ``max_events``.
 
     Returns a status code of :mod:`.layout` (``ST_*``); ``acc[A_NOW]`` holds the time of the
     last processed event. The state is consistent at every return. ``cbuf`` is an int32 scratch
-    array of 27 cells (the loop allocates nothing).
+    array of 27 cells (the loop allocates nothing); ``emd`` holds the pending eMD* contacts
+    and the matrix-of-restitution table (:mod:`.emdstar`).
     """
     P, mass, omega, inertia, image, count, tlast = part
+    ptb = emd[1]
     key = q[0]
     mode = ip[L.IP_MODE]
     log_cap = ip[L.IP_LOG_CAP]
     total_mass = fp[L.FP_MTOT]
+    use_emd = ip[L.IP_EMD] != 0
     done = 0
     while True:
         i = queue_top(q)
@@ -283,13 +396,18 @@ def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, etab
         if ev[3][i] <= ev[0][i]:
             kind = ev[4][i]
             cnt[L.C_AUX] += 1
+            if kind == L.AUX_B:
+                execute_b(i, t, P, count, emd, geo)
+                cnt[L.C_EMD_B] += 1
+                _repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb)
+                continue
             if kind >= L.AUX_WALL:
                 advance(P, i, t, geo)
                 integrate_kinetic(acc, t, geo, total_mass)
                 collide_wall(t, P, mass, omega, inertia, tlast, i, (kind - L.AUX_WALL) >> 1, (kind - L.AUX_WALL) & 1, fp, ip, etab, acc)
                 count[i] += 1
                 cnt[L.C_WALL] += 1
-                _repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf)
+                _repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb)
                 continue
             if kind == L.AUX_SHELL:
                 advance(P, i, t, geo)
@@ -300,7 +418,7 @@ def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, etab
                 predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
             else:
                 _cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf)
-            predict_aux(i, t, P, ev, grid, lists, geo, mode, fp, ip)
+            predict_aux(i, t, P, ev, grid, lists, geo, mode, fp, ip, ptb)
             _requeue(q, ev, i)
             continue
         j = ev[1][i]
@@ -312,29 +430,34 @@ def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, etab
         if log_cap > 0 and cnt[L.C_LOG] >= log_cap:
             cnt[L.C_EVENTS] -= 1
             return L.ST_LOG_FULL
-        if ip[L.IP_DEBUG] and not _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf):
+        if ip[L.IP_DEBUG] and not _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf, use_emd):
             return L.ST_OVERLAP
         advance(P, i, t, geo)
         advance(P, j, t, geo)
         integrate_kinetic(acc, t, geo, total_mass)
-        vn, vt = collide_pair(t, P, mass, omega, inertia, tlast, i, j, geo, fp, ip, etab, acc, cnt)
+        outcome = 2
+        vn = vt = 0.0
+        if use_emd:
+            outcome = _emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt, cbuf, emd)
+            if outcome < 0:
+                return L.ST_LIST_FULL
+            if outcome == 1:
+                vn, vt = acc[L.A_EMD_VN], acc[L.A_EMD_VT]
+            elif outcome == 2:
+                cnt[L.C_EMD_FALLBACK] += 1
+        if outcome == 2:
+            vn, vt = collide_pair(t, P, mass, omega, inertia, tlast, i, j, geo, fp, ip, etab, acc, cnt)
         count[i] += 1
         count[j] += 1
-        cnt[L.C_COLL] += 1
-        if log_cap > 0:
-            r = cnt[L.C_LOG]
-            clog[r, 0] = t
-            clog[r, 1] = i
-            clog[r, 2] = j
-            clog[r, 3] = vn
-            clog[r, 4] = vt
-            cnt[L.C_LOG] = r + 1
-        _repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf)
-        _repredict(j, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf)
+        if outcome != 0:
+            cnt[L.C_COLL] += 1
+            _log_collision(clog, cnt, log_cap, t, i, j, vn, vt)
+        _repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb)
+        _repredict(j, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb)
 
 
 @jit
-def setup_events(part, ev, grid, lists, geo, fp, ip, cbuf, t):
+def setup_events(part, ev, grid, lists, geo, fp, ip, cbuf, emd, t):
     """Bin every particle (positions or list centres) and predict all events at time ``t``.
 
     Returns ``False`` if a neighbour list ran out of capacity.
@@ -351,5 +474,5 @@ def setup_events(part, ev, grid, lists, geo, fp, ip, cbuf, t):
             cell_insert(grid, i, cell_of_point(P[i, L.X], P[i, L.Y], P[i, L.Z], geo, grid))
     for i in range(n):
         predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
-        predict_aux(i, t, P, ev, grid, lists, geo, mode, fp, ip)
+        predict_aux(i, t, P, ev, grid, lists, geo, mode, fp, ip, emd[1])
     return True

@@ -1,7 +1,7 @@
 """Non-disturbing observation: stream copies of all particles to one instant."""
 
 import numpy as np
-from .jit import jit, jit_alloc
+from .jit import jit_alloc
 
 from .predict import flight
 
@@ -36,13 +36,3 @@ def stream_all(P, image, t, geo):
         vel[i, 1] = vy
         vel[i, 2] = vz
     return pos, vel, img
-
-
-@jit
-def kinetic_energy_at(P, mass, t, geo):
-    """Total translational kinetic energy at time ``t``."""
-    e = 0.0
-    for i in range(P.shape[0]):
-        x, y, z, vx, vy, vz = flight(P, i, t, geo)
-        e += mass[i] * (vx * vx + vy * vy + vz * vz)
-    return 0.5 * e

@@ -110,7 +110,7 @@ class VelocityDistribution:
             if not t > 0:
                 raise ValueError(f"the state at t = {s.time} has zero temperature: no velocity distribution")
             u = s.momentum() / s.mass.sum()
-            speeds.append(np.linalg.norm(s.velocity - u, axis=1) * np.sqrt(s.mass / t))
+            speeds.append(np.linalg.norm(s.committed_velocity - u, axis=1) * np.sqrt(s.mass / t))
             temps.append(t)
         c = np.concatenate(speeds)
         d = states[0].dim

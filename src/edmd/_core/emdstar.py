@@ -1,0 +1,118 @@
+r"""eMD* events of type A and B (physics.md §4.8): the compiled pieces the event loop calls.
+
+A soft contact of particles ``i`` and ``j`` reaching :math:`|\mathbf r_{ij}| = \sigma_{ij}` at
+:math:`t_0` becomes one **A event** (relocate the pair about its centre of mass, give both the
+centre-of-mass velocity :math:`\mathbf V`, store the post-collisional increments
+:math:`\boldsymbol\Delta_{i,j}`) and two **B events** at :math:`t_0 + t_c` (each particle takes
+:math:`\mathbf v + \boldsymbol\Delta`). After both B events positions and velocities equal those
+of Newton's equations for the soft contact (physics.md §4.6).
+
+Pending contacts live in the bundle ``emd = (pdv, ptb, pj, values, tg, ctab, cgeo, W, K, work)``:
+
+* ``pdv (N, 3)``: pending increment :math:`\boldsymbol\Delta` (zero when nothing is pending);
+* ``ptb (N,)``: local time of the pending B event (``inf``: none);
+* ``pj (N,)`` int32: the partner of the pending contact (``-1``: none);
+* ``values, tg, ctab, cgeo``: the lookup table of the matrix of restitution (:mod:`.lookup`);
+* ``W, K``: scratch of the table lookup and of the direct solver; ``work (9, 3)``: scratch of
+  the lab-frame update (rows: ``r1, r2, v1, v2``, then ``r1A, r2A, V, Delta1, Delta2``).
+"""
+
+import math
+
+from . import layout as L
+from .cells import cell_block, cell_of_point
+from .jit import hot, jit
+from .lookup import matrix_of_restitution
+from .predict import INF, advance, flight, wrap3
+from .twobody import lab_frame_update
+
+
+@hot
+def is_pending(emd, p):
+    """Whether particle ``p`` has a pending B event."""
+    return emd[1][p] < INF
+
+
+@hot
+def execute_b(p, t, P, count, emd, geo):
+    r"""Event B of ``p`` at time ``t`` (on schedule, or early in exception b): :math:`\mathbf v \leftarrow \mathbf v(t) + \boldsymbol\Delta`."""
+    pdv, ptb, pj = emd[0], emd[1], emd[2]
+    advance(P, p, t, geo)
+    P[p, L.VX] += pdv[p, 0]
+    P[p, L.VY] += pdv[p, 1]
+    P[p, L.VZ] += pdv[p, 2]
+    pdv[p, 0] = 0.0
+    pdv[p, 1] = 0.0
+    pdv[p, 2] = 0.0
+    ptb[p] = INF
+    pj[p] = -1
+    count[p] += 1
+
+
+@jit
+def relocation_blocked(x, y, z, r, i, j, t, P, grid, geo, walls, cbuf):
+    """Exception a) test: would a particle of radius ``r`` at ``(x, y, z)`` overlap a wall or a third particle?
+
+    Candidates are the particles binned in the 3^d cells around the point: cells are at least
+    as wide as the largest contact distance plus the list skin (list mode bins list centres,
+    which lie within half a skin of the particles), so no overlapping particle is missed.
+    ``i`` and ``j`` (the pair itself) are skipped; third particles are taken at time ``t``.
+    """
+    p = (x, y, z)
+    for k in range(3):
+        if walls & (1 << k) and abs(p[k]) + r > 0.5 * geo[k]:
+            return True
+    x, y, z = wrap3(x, y, z, geo)  # into the box: the point's own cell
+    nc = cell_block(grid, cell_of_point(x, y, z, geo, grid), geo, cbuf, -1, 0)
+    for s in range(nc):
+        k = grid[0][cbuf[s]]
+        while k >= 0:
+            if k != i and k != j:
+                kx, ky, kz, _vx, _vy, _vz = flight(P, k, t, geo)
+                dx, dy, dz = wrap3(x - kx, y - ky, z - kz, geo)
+                sig = r + P[k, L.R]
+                if dx * dx + dy * dy + dz * dz < sig * sig:
+                    return True
+            k = grid[1][k]
+    return False
+
+
+@jit
+def contact_map(i, j, P, mass, geo, fp, ip, emd):
+    r"""Matrix of restitution and lab-frame update of the contact ``(i, j)`` (both streamed to it).
+
+    Fills ``work[4:9]`` with ``r_iA, r_jA, V, Delta_i, Delta_j`` (``r_jA`` in the periodic image
+    closest to ``i``) via physics.md §4.5–§4.7 (table, or the direct solver outside the table's
+    box or when no table is used) and §4.6. Returns ``(t_c, lost, v_n, v_t)``: the contact
+    duration (NaN if the solver failed) and the kinetic energy the pair loses,
+    :math:`\tfrac12\mu\,[v_n^2 + v_t^2 - \hat\varepsilon^2v_n^2 - v_t^2/D^2]`.
+    """
+    values, tg, ctab, cgeo, W, K, work = emd[3], emd[4], emd[5], emd[6], emd[7], emd[8], emd[9]
+    dx, dy, dz = wrap3(P[j, L.X] - P[i, L.X], P[j, L.Y] - P[i, L.Y], P[j, L.Z] - P[i, L.Z], geo)
+    for k in range(3):
+        work[0, k] = P[i, L.X + k]
+        work[2, k] = P[i, L.VX + k]
+        work[3, k] = P[j, L.VX + k]
+    work[1, 0] = P[i, L.X] + dx
+    work[1, 1] = P[i, L.Y] + dy
+    work[1, 2] = P[i, L.Z] + dz
+    mi, mj = mass[i], mass[j]
+    ri, rj = P[i, L.R], P[j, L.R]
+    sigma = ri + rj
+    mu = mi * mj / (mi + mj)
+    out = work[4:9]
+    # normal / tangential impact speeds (the update below recomputes them identically)
+    inv = 1.0 / math.sqrt(dx * dx + dy * dy + dz * dz)
+    gx, gy, gz = work[2, 0] - work[3, 0], work[2, 1] - work[3, 1], work[2, 2] - work[3, 2]
+    vn = (gx * dx + gy * dy + gz * dz) * inv
+    tx, ty, tz = gx - vn * dx * inv, gy - vn * dy * inv, gz - vn * dz * inv
+    vt = math.sqrt(tx * tx + ty * ty + tz * tz)
+    phi, d, tc, eps, _tab = matrix_of_restitution(
+        ip[L.IP_EMD_MODEL], fp[L.FP_SOFT_A], fp[L.FP_SOFT_B], mu, ri * rj / sigma, sigma, vn, vt,
+        ip[L.IP_EMD_TABLE] != 0, values, tg, ctab, cgeo, fp[L.FP_EMD_RTOL], W, K,
+    )  # fmt: skip
+    if not tc == tc:
+        return math.nan, 0.0, vn, vt
+    vn, vt = lab_frame_update(work[0], work[1], work[2], work[3], mi, mj, sigma, phi, d, eps, out)
+    lost = 0.5 * mu * ((1.0 - eps * eps) * vn * vn + (1.0 - 1.0 / (d * d)) * vt * vt)
+    return tc, lost, vn, vt
