@@ -19,6 +19,8 @@ from edmd._core.twobody import dashpot_central
 from edmd.contact import ContactError, Hertz, LinearDashpot
 from edmd.twobody import collide, lab_frame_update, solve
 
+from reference import direct_two_spheres, random_contact
+
 # physics.md §2.2.1 table: zeta, omega0 t_c, e_n, xi_c omega0 / v_n
 DASHPOT_TABLE = [
     (0.01, 3.1217484, 0.9692648, 0.019385),
@@ -210,50 +212,6 @@ def test_bad_solver_input():
 
 
 # ------------------------------------------------------------------ lab frame (§4.6, T11, T12)
-def direct_two_spheres(contact, m, R, r0, v0, gravity, t_end):
-    """Cartesian Newtonian integration of two soft spheres from first contact (scipy DOP853).
-
-    Force F n on sphere 1 (n from 2 to 1) while the overlap is positive and until F vanishes,
-    then free flight (parabolic with gravity) to t_end.
-    """
-    a, b = contact.constants()
-    reff = R[0] * R[1] / (R[0] + R[1])
-    sigma = R[0] + R[1]
-
-    def force(y):
-        d = y[0:3] - y[3:6]
-        r = np.linalg.norm(d)
-        n = d / r
-        xi = sigma - r
-        xi_dot = -np.dot(y[6:9] - y[9:12], n)
-        if contact.code == 1:
-            f = a * math.sqrt(reff) * math.sqrt(max(xi, 0.0)) * (xi + b * xi_dot)
-        else:
-            f = a * xi + b * xi_dot
-        return f, n, xi, xi_dot
-
-    def rhs(t, y):
-        f, n, _xi, _xd = force(y)
-        return np.concatenate([y[6:9], y[9:12], f * n / m[0] + gravity, -f * n / m[1] + gravity])
-
-    def ended(t, y):
-        f, _n, xi, xi_dot = force(y)
-        if t < 1e-12 * t_end:
-            return 1.0
-        return xi + b * xi_dot if contact.code == 1 else a * xi + b * xi_dot
-
-    ended.terminal = True
-    ended.direction = -1
-    y0 = np.concatenate([r0[0], r0[1], v0[0], v0[1]])
-    sol = solve_ivp(rhs, (0, t_end), y0, method="DOP853", rtol=1e-13, atol=1e-16 * t_end, events=ended)
-    tc = sol.t_events[0][0]
-    y = sol.y_events[0][0]
-    dt = t_end - tc
-    pos = [y[0:3] + y[6:9] * dt + 0.5 * gravity * dt**2, y[3:6] + y[9:12] * dt + 0.5 * gravity * dt**2]
-    vel = [y[6:9] + gravity * dt, y[9:12] + gravity * dt]
-    return tc, pos, vel
-
-
 def emd_star_two_spheres(contact, m, R, r0, v0, gravity, t_end):
     """eMD*: event A at t0 = 0 (relocate, both move with V), event B at t_c, free flight to t_end."""
     g = v0[0] - v0[1]
@@ -271,28 +229,6 @@ def emd_star_two_spheres(contact, m, R, r0, v0, gravity, t_end):
         pos.append(r_b + v_b * dt + 0.5 * gravity * dt**2)
         vel.append(v_b + gravity * dt)
     return tc, pos, vel, upd
-
-
-def random_contact(rng, dim, R, speed, b):
-    """Positions and velocities of two spheres touching with impact speed ``speed``, eccentricity ``b``."""
-    n = rng.normal(size=3)
-    if dim == 2:
-        n[2] = 0.0
-    n /= np.linalg.norm(n)
-    t = rng.normal(size=3)
-    if dim == 2:
-        t[2] = 0.0
-    t -= (t @ n) * n
-    t /= np.linalg.norm(t)
-    g = speed * (-math.sqrt(1 - b * b) * n + b * t)
-    V = rng.normal(size=3) * speed
-    if dim == 2:
-        V[2] = 0.0
-    center = rng.normal(size=3)
-    if dim == 2:
-        center[2] = 0.0
-    sigma = R[0] + R[1]
-    return [center + 0.6 * sigma * n, center - 0.4 * sigma * n], [V + 0.7 * g, V - 0.3 * g]
 
 
 LAB_CASES = [

@@ -26,7 +26,8 @@ def build_state(cfg: Config) -> State:
     """The initial state described by ``[system]`` (or read from ``system.from_file``)."""
     s = cfg.system
     if s.from_file is not None:
-        return read_state(s.from_file, s.from_frame, check_overlaps=cfg.integrator.kind != "dem")
+        soft = cfg.integrator.kind == "dem" or cfg.collision.rule == "emdstar"  # soft particles may overlap
+        return read_state(s.from_file, s.from_frame, check_overlaps=not soft)
     radius = s.radius if isinstance(s.radius, float) else s.radius.as_dict()
     periodic = [axis not in cfg.walls.axes for axis in "xyz"[: s.dim]]
     common = dict(

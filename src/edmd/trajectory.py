@@ -44,8 +44,13 @@ def angmom(state: State) -> np.ndarray:
     return p
 
 
-def state_to_frame(state: State, totals: Totals | None = None) -> gsd.hoomd.Frame:
-    """A GSD frame holding every field of ``state`` (and the counters of ``totals``)."""
+def state_to_frame(state: State, totals: Totals | None = None, pending: bool | None = None) -> gsd.hoomd.Frame:
+    """A GSD frame holding every field of ``state`` (and the counters of ``totals``).
+
+    Pending eMD* contacts go under ``log/particles/pending_*`` when ``pending`` is true (default:
+    when the state has any). GSD reads a missing log entry from frame 0, so a file either has
+    them in every frame or in none: trajectories of eMD* runs pass ``pending=True``.
+    """
     n, d = state.n, state.dim
     f = gsd.hoomd.Frame()
     f.configuration.dimensions = d
@@ -78,6 +83,10 @@ def state_to_frame(state: State, totals: Totals | None = None) -> gsd.hoomd.Fram
     f.log["particles/angular_velocity"] = np.asarray(state.angular_velocity, np.float64)
     f.log["particles/radius"] = state.radius.astype(np.float64)
     f.log["particles/last_collision"] = state.last_collision.astype(np.float64)  # in every frame (GSD defaults)
+    if state.has_pending if pending is None else pending:
+        f.log["particles/pending_velocity"] = np.asarray(state.pending_velocity, np.float64)
+        f.log["particles/pending_until"] = np.asarray(state.pending_until, np.float64)
+        f.log["particles/pending_partner"] = np.asarray(state.pending_partner, np.int64)
     if totals is not None:
         f.log["events"] = np.array([totals.events], np.int64)
         f.log["collisions"] = np.array([totals.collisions], np.int64)
@@ -132,6 +141,9 @@ def frame_to_state(frame: gsd.hoomd.Frame, check_overlaps: bool = True) -> State
         image=image,
         periodic=None if periodic is None else np.asarray(periodic, bool),
         last_collision=None if last is None else np.asarray(last, np.float64),
+        pending_velocity=log.get("particles/pending_velocity"),
+        pending_until=log.get("particles/pending_until"),
+        pending_partner=log.get("particles/pending_partner"),
         check_overlaps=check_overlaps,
     )
 
@@ -265,7 +277,7 @@ class Trajectory(Observer):
     def observe(self, sim: Simulation, state: State, totals: Totals):
         if self._file is None:
             self._file = gsd.hoomd.open(self.path, self.mode, precision="double")
-        self._file.append(state_to_frame(state, totals))
+        self._file.append(state_to_frame(state, totals, pending=sim.engine.emd_rule is not None))
         self._file.flush()
 
     def checkpoint_data(self) -> dict:

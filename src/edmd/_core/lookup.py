@@ -242,7 +242,8 @@ def matrix_of_restitution(model, a, b, mu, reff, sigma, vn, vt, use_table, value
     over outside its box; otherwise the solver is used. ``W``: scratch ``(3, p + 1)``; ``K``:
     scratch ``(13, 3)``.
 
-    Returns ``(Phi, D, t_c, eps_hat, from_table)`` with the physical contact duration ``t_c``.
+    Returns ``(Phi, D, t_c, eps_hat, from_table)`` with the physical contact duration ``t_c``;
+    elastic contacts have :math:`D = \hat\varepsilon = 1` exactly (physics.md §4.5).
     """
     c, lam, ts, _ls = contact_scales(model, a, b, mu, reff, sigma, vn)
     if use_table:
@@ -252,7 +253,8 @@ def matrix_of_restitution(model, a, b, mu, reff, sigma, vn, vt, use_table, value
         if r[2] == r[2]:
             return r[0], r[1], r[2] * ts, r[3], True
     r = solve_scaled(model, c, lam, vt / vn, rtol, K)
-    return r[0], r[1], r[2] * ts, r[3], False
+    eps = r[3] if c > 0.0 else 1.0 + 0.0 * r[3]  # elastic: exactly 1 (energy), NaN kept
+    return r[0], r[1], r[2] * ts, eps, False
 
 
 @jit

@@ -1,0 +1,241 @@
+"""eMD* in the event engine (physics.md §4.8): A/B events, exceptions, pending contacts."""
+
+import doctest
+import math
+
+import numpy as np
+import pytest
+from reference import direct_two_spheres, random_contact
+
+import edmd
+import edmd.emdstar
+from edmd import Hertz, LinearDashpot, Simulation, State
+from edmd.collide import Inelastic, RuleError, TC, Wall
+from edmd.emdstar import EMDStar, EMDStarError
+
+CONTACTS = [
+    (LinearDashpot(k=1e4, gamma=20.0), 1.0),
+    (LinearDashpot(k=500.0, gamma=8.0), 3.0),  # very soft: Lambda ~ 0.1
+    (Hertz(young=1e6, poisson=0.3, A=1e-3), 1.0),
+    (Hertz(young=600.0, poisson=0.3, A=2e-2), 2.0),  # very soft: Lambda ~ 0.13, delta ~ 0.35
+]
+M, R = (1.0, 2.5), (0.5, 0.8)
+
+
+def two_body_state(r0, v0, dim, lead, gravity=None, box=40.0):
+    """Two spheres that touch at time ``lead`` at ``r0`` with velocities ``v0`` (free flight before)."""
+    G = np.zeros(3) if gravity is None else gravity
+    pos = [r - v * lead + 0.5 * G * lead**2 for r, v in zip(r0, v0)]
+    vel = [v - G * lead for v in v0]
+    periodic = gravity is None
+    return State(
+        position=np.array(pos)[:, :dim], velocity=np.array(vel)[:, :dim], radius=R, mass=M,
+        box=[box] * dim, periodic=[periodic] * dim,
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize("contact, speed", CONTACTS, ids=[f"{c.name}-{i}" for i, (c, _s) in enumerate(CONTACTS)])
+@pytest.mark.parametrize("tables, tol", [("exact", 1e-8), ("default", 1e-6)])
+def test_two_body_matches_newton(contact, speed, tables, tol, dim, rng):
+    """A and B events reproduce a direct Cartesian integration (physics.md §4.10(d)) after the contact."""
+    for b in (0.0, 0.3, 0.7, 0.95):
+        r0, v0 = random_contact(rng, dim, R, speed, b)
+        lead = 0.5 / speed
+        sim = Simulation(two_body_state(r0, v0, dim, lead), collision=EMDStar(contact, tables=tables))
+        tc, _pos, _vel = direct_two_spheres(contact, M, R, r0, v0, np.zeros(3), 1.0)
+        t_end = lead + 3.0 * tc
+        tc, pos, vel = direct_two_spheres(contact, M, R, r0, v0, np.zeros(3), 3.0 * tc)
+        sim.run(until_time=t_end)
+        s = sim.state
+        assert not s.has_pending
+        assert sim.engine.emd_counters()["emd_contacts"] == 1
+        unwrapped = s.unwrapped_position
+        for k in range(2):
+            assert np.max(np.abs(unwrapped[k] - pos[k][:dim])) < tol * (R[0] + R[1])
+            assert np.max(np.abs(s.velocity[k] - vel[k][:dim])) < tol * speed
+
+
+def test_two_body_with_gravity(rng):
+    """With gravity the pair falls with V + G t during the contact; B adds the increments (physics.md §4.6)."""
+    contact = Hertz(young=1e6, poisson=0.3, A=1e-3)
+    G = np.array([0.0, 0.0, -9.81])
+    r0, v0 = random_contact(rng, 3, R, 1.0, 0.6)
+    lead = 0.3
+    sim = Simulation(two_body_state(r0, v0, 3, lead, gravity=G), collision=EMDStar(contact, tables="exact"), gravity=G)
+    tc, _p, _v = direct_two_spheres(contact, M, R, r0, v0, G, 1.0)
+    tc, pos, vel = direct_two_spheres(contact, M, R, r0, v0, G, 3.0 * tc)
+    sim.run(until_time=lead + 3.0 * tc)
+    s = sim.state
+    for k in range(2):
+        assert np.max(np.abs(s.position[k] - pos[k])) < 1e-8 * (R[0] + R[1])
+        assert np.max(np.abs(s.velocity[k] - vel[k])) < 1e-8
+
+
+def test_pending_contact_observables_and_conservation(rng, dim):
+    """Between A and B: committed velocities carry the momentum and energy (physics.md §4.8, T12)."""
+    contact = Hertz(young=600.0, poisson=0.3, A=2e-2)
+    r0, v0 = random_contact(rng, dim, R, 2.0, 0.5)
+    state = two_body_state(r0, v0, dim, 0.25)
+    sim = Simulation(state, collision=EMDStar(contact, tables="exact"))
+    tc, _p, _v = direct_two_spheres(contact, M, R, r0, v0, np.zeros(3), 1.0)
+    sim.run(until_time=0.25 + 0.5 * tc)
+    mid = sim.state
+    assert mid.has_pending and list(mid.pending_partner) == [1, 0]
+    np.testing.assert_allclose(mid.velocity[0], mid.velocity[1], rtol=0, atol=0)  # both move with V
+    np.testing.assert_allclose(mid.momentum(), state.momentum(), rtol=1e-14, atol=1e-14)
+    sim.run(until_time=0.25 + 2.0 * tc)
+    end = sim.state
+    assert not end.has_pending
+    np.testing.assert_allclose(end.momentum(), state.momentum(), rtol=1e-14, atol=1e-14)
+    # kinetic + dissipated is conserved; the mid-contact value books the loss already (committed)
+    totals = sim.totals()
+    assert mid.kinetic_energy() == pytest.approx(end.kinetic_energy(), rel=1e-13)
+    assert end.kinetic_energy() + totals.dissipated == pytest.approx(state.kinetic_energy(), rel=1e-13)
+    assert totals.dissipated > 0
+
+
+def test_elastic_contact_conserves_energy(dim, rng):
+    """Elastic Hertz: D = 1, eps = 1, so no energy is lost (physics.md §4.5)."""
+    r0, v0 = random_contact(rng, dim, R, 1.0, 0.8)
+    state = two_body_state(r0, v0, dim, 0.3)
+    sim = Simulation(state, collision=EMDStar(Hertz(young=1e5, poisson=0.3, A=0.0)))
+    sim.run(until_time=2.0)
+    assert sim.state.kinetic_energy() == pytest.approx(state.kinetic_energy(), rel=1e-13)
+    assert abs(sim.totals().dissipated) < 1e-13 * state.kinetic_energy()
+
+
+def test_classic_edmd_differs_from_emd_star(rng):
+    """The instantaneous rule with the same central e_n misses oblique soft contacts (physics.md §4.10(d))."""
+    contact = Hertz(young=600.0, poisson=0.3, A=2e-2)
+    r0, v0 = random_contact(rng, 3, R, 2.0, 0.7)
+    state = two_body_state(r0, v0, 3, 0.25)
+    emd = Simulation(state, collision=EMDStar(contact, tables="exact"))
+    classic = Simulation(state, collision=contact.restitution_rule())
+    for sim in (emd, classic):
+        sim.run(until_time=1.0)
+    gap = np.abs(emd.state.unwrapped_position - classic.state.unwrapped_position).max()
+    assert gap > 1e-2 * (R[0] + R[1])
+
+
+def exception_a_state():
+    """0 and 1 touch obliquely; the relocation swings 1 (down, -y) into 2, which rests nearby."""
+    pos = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.2, -1.001, 0.0]]
+    vel = [[0.5, 0.5, 0.0], [-0.5, -0.5, 0.0], [0.0, 0.0, 0.0]]
+    return State(position=pos, velocity=vel, radius=0.5, mass=1.0, box=[20.0] * 3)
+
+
+def test_exception_a_falls_back_to_the_instantaneous_rule():
+    """a) relocation overlapping a third particle: instantaneous rule with the central e_n(v_n) (physics.md §4.8)."""
+    contact = Hertz(young=50.0, poisson=0.3, A=0.01)  # very soft: a large rotation Phi
+    state = exception_a_state()
+    sim = Simulation(state, collision=EMDStar(contact, tables="exact"))
+    sim.run(max_events=1)
+    c = sim.engine.emd_counters()
+    assert c["emd_exceptions_a"] == 1 and c["emd_fallbacks"] == 1 and c["emd_contacts"] == 0
+    s = sim.state
+    np.testing.assert_array_equal(s.position[:2], state.position[:2])  # positions unchanged
+    g = state.velocity[0] - state.velocity[1]
+    n = np.array([-1.0, 0.0, 0.0])
+    e_n = contact.central(1.0, 1.0, 0.5, 0.5, v_n=-(g @ n)).e_n
+    g_after = s.velocity[0] - s.velocity[1]
+    assert g_after @ n == pytest.approx(-e_n * (g @ n), rel=1e-6)
+    assert g_after[1] == pytest.approx(g[1], rel=1e-14)  # tangential part unchanged
+
+
+@pytest.mark.parametrize("communication", [True, False])
+def test_exception_b_executes_pending_b_events(communication):
+    """b) a particle with a pending B meets a third particle: B first, then the contact (physics.md §4.8)."""
+    contact = Hertz(young=20.0, poisson=0.3, A=0.0)  # long contacts
+    pos = [[0.0, 0.0, 0.0], [1.0 + 1e-3, 0.0, 0.0], [2.0 + 0.02, 0.0, 0.0]]
+    vel = [[1.0, 0.0, 0.0], [0.0, 0.0, 0.0], [-1.0, 0.0, 0.0]]
+    state = State(position=pos, velocity=vel, radius=0.5, mass=1.0, box=[20.0] * 3)
+    sim = Simulation(state, collision=EMDStar(contact, tables="exact", communication=communication))
+    sim.run(until_time=3.0)
+    c = sim.engine.emd_counters()
+    assert c["emd_exceptions_b"] >= 1
+    s = sim.state
+    assert not s.has_pending
+    np.testing.assert_allclose(s.momentum(), state.momentum(), atol=1e-14)
+    assert s.kinetic_energy() == pytest.approx(state.kinetic_energy(), rel=1e-12)  # elastic
+
+
+def test_many_body_gas_runs_and_conserves(dim):
+    """A dense soft gas: every kind of event and exception; momentum and energy balance hold."""
+    state = edmd.maxwell_boltzmann(edmd.lattice(64 if dim == 2 else 125, 0.3, dim=dim), 1.0, seed=3)
+    rule = EMDStar(Hertz(young=2e3, poisson=0.3, A=2e-3))
+    sim = Simulation(state, collision=rule)
+    e0 = state.kinetic_energy()
+    sim.run(until_time=5.0)
+    c = sim.engine.emd_counters()
+    assert c["emd_contacts"] > 100 and c["emd_exceptions_b"] > 0 and c["emd_exceptions_a"] > 0
+    s = sim.state
+    np.testing.assert_allclose(s.momentum(), 0.0, atol=1e-12)
+    assert s.kinetic_energy() + sim.totals().dissipated == pytest.approx(e0, rel=1e-11)
+    assert s.kinetic_energy() < e0
+
+
+def test_walls_use_the_contact_law(dim):
+    """Walls with eMD*: the instantaneous rule with the contact law's e_n(v_n), mu = m, R_eff = R."""
+    contact = Hertz(young=1e4, poisson=0.3, A=5e-3)
+    pos = np.zeros((1, dim))
+    vel = np.zeros((1, dim))
+    vel[0, 0] = -2.0
+    state = State(position=pos, velocity=vel, radius=0.5, mass=1.0, box=[4.0] * dim, periodic=[False] + [True] * (dim - 1))
+    sim = Simulation(state, collision=EMDStar(contact))
+    sim.run(until_time=1.0)
+    expected = Wall(e_n=contact.restitution_rule())
+    ref = Simulation(state, collision=Inelastic(1.0), walls=expected)
+    ref.run(until_time=1.0)
+    assert sim.state.velocity[0, 0] == pytest.approx(ref.state.velocity[0, 0], rel=1e-12)
+    assert 0 < sim.state.velocity[0, 0] < 2.0
+
+
+def test_bad_settings_name_the_problem(tmp_path):
+    with pytest.raises(EMDStarError, match="soft contact law"):
+        EMDStar(Inelastic(0.9))
+    with pytest.raises(EMDStarError, match="no table file"):
+        EMDStar(Hertz(1e7, 0.3), tables=str(tmp_path / "missing.npz"))
+    with pytest.raises(EMDStarError, match="communication"):
+        EMDStar(Hertz(1e7, 0.3), communication="yes")
+    with pytest.raises(RuleError, match="TC model does not apply"):
+        TC(EMDStar(Hertz(1e7, 0.3)), 1e-4)
+    s = State(position=[[0.0, 0.0], [0.9, 0.0]], velocity=[[0.0, 0.0], [0.0, 0.0]], radius=0.5, mass=1.0, box=[5.0, 5.0],
+              pending_partner=[1, 0], pending_until=[1.0, 1.0], pending_velocity=[[0.1, 0.0], [-0.1, 0.0]])  # fmt: skip
+    with pytest.raises(edmd.StateError, match="pending eMD"):
+        Simulation(s)
+    with pytest.raises(edmd.StateError, match="inconsistent pending"):
+        State(position=[[0.0, 0.0]], velocity=[[0.0, 0.0]], radius=0.5, mass=1.0, box=[5.0, 5.0], pending_partner=[0])
+
+
+def test_state_round_trips_pending_contacts(tmp_path, rng):
+    contact = Hertz(young=600.0, poisson=0.3, A=2e-2)
+    r0, v0 = random_contact(rng, 3, R, 2.0, 0.5)
+    sim = Simulation(two_body_state(r0, v0, 3, 0.25), collision=EMDStar(contact, tables="exact"))
+    sim.run(until_time=0.26)
+    s = sim.state
+    assert s.has_pending
+    edmd.write_state(tmp_path / "s.gsd", s)
+    back = edmd.read_state(tmp_path / "s.gsd")
+    for name in ("position", "velocity", "pending_velocity", "pending_until", "pending_partner"):
+        np.testing.assert_array_equal(getattr(back, name), getattr(s, name))
+
+
+def test_examples_in_docstrings():
+    assert doctest.testmod(edmd.emdstar).failed == 0
+
+
+def test_resync_keeps_pending_contacts_exact(rng):
+    """A run cut into pieces with resyncs in between equals the uncut run (pending B's re-based)."""
+    state = edmd.maxwell_boltzmann(edmd.lattice(125, 0.2), 1.0, seed=5)
+    rule = EMDStar(Hertz(young=2e3, poisson=0.3, A=2e-3))
+    a = Simulation(state, collision=rule)
+    a.run(until_time=2.0)
+    b = Simulation(state, collision=rule)
+    for t in np.linspace(0.1, 2.0, 20):
+        b.run(until_time=float(t))
+        b.engine.resync(float(t))
+    sa, sb = a.state, b.state
+    assert a.collisions == b.collisions
+    np.testing.assert_allclose(sb.unwrapped_position, sa.unwrapped_position, atol=1e-9)
+    np.testing.assert_allclose(sb.committed_velocity, sa.committed_velocity, atol=1e-9)
+    assert math.isfinite(sa.kinetic_energy())
