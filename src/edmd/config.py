@@ -87,9 +87,12 @@ class CollisionConfig(_Section):
     ``rule``: ``"elastic"``; ``"inelastic"`` (``e_n``); ``"rough"`` (``e_n`` or the viscoelastic
     material, and ``beta`` or ``e_t = -beta``, optional Coulomb ``mu``); ``"viscoelastic"``
     (``young``, ``poisson``, ``A``). ``tc`` switches the TC model on with that duration.
+    ``"emdstar"`` (soft spheres, :class:`edmd.emdstar.EMDStar`): ``contact = "hertz"`` with
+    ``young``, ``poisson``, ``A`` or ``contact = "dashpot"`` with ``k`` and ``gamma`` (or ``e_n``
+    for two particles of the mean mass), ``tables`` and ``communication``.
     """
 
-    rule: Literal["elastic", "inelastic", "rough", "viscoelastic"] = "elastic"
+    rule: Literal["elastic", "inelastic", "rough", "viscoelastic", "emdstar"] = "elastic"
     e_n: float | None = Field(None, ge=0, le=1, description="normal restitution coefficient")
     beta: float | None = Field(None, ge=-1, le=1, description="tangential restitution (-1 smooth, 1 perfectly rough)")
     e_t: float | None = Field(None, ge=-1, le=1, description="tangential restitution in the e_t = -beta convention")
@@ -98,9 +101,19 @@ class CollisionConfig(_Section):
     poisson: float | None = Field(None, gt=-1, le=0.5, description="Poisson ratio (viscoelastic)")
     A: float | None = Field(None, ge=0, description="dissipative time constant (viscoelastic)")
     tc: float | None = Field(None, gt=0, description="TC model duration")
+    contact: Literal["hertz", "dashpot"] | None = Field(None, description="emdstar: the soft contact law")
+    k: float | None = Field(None, gt=0, description="emdstar dashpot: spring constant")
+    gamma: float | None = Field(None, ge=0, description="emdstar dashpot: damping constant")
+    tables: str | None = Field(None, description="emdstar: 'default', 'exact' or a table file")
+    communication: bool | None = Field(None, description="emdstar: post-collisional communication (default true)")
 
     @model_validator(mode="after")
     def _consistent(self):
+        emd_keys = [k for k in ("contact", "k", "gamma", "tables", "communication") if getattr(self, k) is not None]
+        if self.rule == "emdstar":
+            return self._emdstar_consistent()
+        if emd_keys:
+            raise ValueError(f"{', '.join(emd_keys)}: only used by rule = 'emdstar'")
         material = [k for k in ("young", "poisson", "A") if getattr(self, k) is not None]
         tangential = [k for k in ("beta", "e_t", "mu") if getattr(self, k) is not None]
         if self.rule == "elastic" and (self.e_n not in (None, 1.0) or material or tangential):
@@ -118,14 +131,46 @@ class CollisionConfig(_Section):
             raise ValueError("the viscoelastic material needs all of young, poisson and A")
         return self
 
+    def _emdstar_consistent(self):
+        own = {"hertz": ("young", "poisson", "A"), "dashpot": ("k", "gamma", "e_n")}
+        if self.contact is None:
+            raise ValueError("rule 'emdstar' needs contact = 'hertz' (young, poisson, A) or 'dashpot' (k, gamma or e_n)")
+        other = "dashpot" if self.contact == "hertz" else "hertz"
+        foreign = [k for k in own[other] + ("beta", "e_t", "mu", "tc") if k not in own[self.contact] and getattr(self, k) is not None]
+        if foreign:
+            raise ValueError(f"{', '.join(foreign)} not used by rule 'emdstar' with contact {self.contact!r}")
+        if self.contact == "hertz" and (self.young is None or self.poisson is None):
+            raise ValueError("contact 'hertz' needs young and poisson (and A, default 0)")
+        if self.contact == "dashpot":
+            if self.k is None:
+                raise ValueError("contact 'dashpot' needs the spring constant k")
+            if self.gamma is not None and self.e_n is not None:
+                raise ValueError("contact 'dashpot': give gamma or e_n, not both")
+        return self
+
+    def soft_contact(self, mass: float):
+        """The soft contact law of rule 'emdstar' (``mass``: the mean particle mass, for a dashpot's ``e_n``)."""
+        from .contact import Hertz, LinearDashpot
+
+        if self.contact == "hertz":
+            return Hertz(self.young, self.poisson, self.A or 0.0)
+        if self.e_n is not None:
+            return LinearDashpot.from_restitution(self.e_n, self.k, mass)
+        return LinearDashpot(self.k, self.gamma or 0.0)
+
     def material(self) -> collide.Viscoelastic | None:
-        """The viscoelastic material, if given."""
-        if self.young is None:
+        """The viscoelastic material, if given (not for rule 'emdstar', whose contact law is :meth:`soft_contact`)."""
+        if self.young is None or self.rule == "emdstar":
             return None
         return collide.Viscoelastic(young=self.young, poisson=self.poisson, A=self.A)
 
-    def build(self) -> collide.Rule:
-        """The :mod:`edmd.collide` rule object."""
+    def build(self, mass: float = 1.0) -> collide.Rule:
+        """The :mod:`edmd.collide` rule object (``mass``: the mean particle mass, see :meth:`soft_contact`)."""
+        if self.rule == "emdstar":
+            from .emdstar import EMDStar
+
+            extra = {k: v for k, v in (("tables", self.tables), ("communication", self.communication)) if v is not None}
+            return EMDStar(self.soft_contact(mass), **extra)
         if self.rule == "elastic":
             rule = collide.Inelastic(1.0)
         elif self.rule == "inelastic":
@@ -141,7 +186,7 @@ class WallsConfig(_Section):
     """``[walls]``: hard walls closing the listed axes at +-L/2 (the others stay periodic)."""
 
     axes: list[Literal["x", "y", "z"]] = []
-    e_n: float = Field(1.0, ge=0, le=1, description="normal restitution of the walls")
+    e_n: float | None = Field(None, ge=0, le=1, description="normal restitution of the walls (default 1; emdstar: the contact law)")
     beta: float | None = Field(None, ge=-1, le=1, description="tangential restitution (default -1: smooth)")
     e_t: float | None = Field(None, ge=-1, le=1)
     mu: float | None = Field(None, ge=0)
@@ -155,9 +200,13 @@ class WallsConfig(_Section):
             raise ValueError("give either beta or e_t (= -beta), not both")
         return self
 
-    def build(self, material: collide.Viscoelastic | None) -> collide.Wall:
-        """The :class:`edmd.collide.Wall` object (``material``: the collision's, for ``viscoelastic``)."""
-        return collide.Wall(e_n=material if self.viscoelastic else self.e_n, beta=self.beta, e_t=self.e_t, mu=self.mu)
+    def build(self, material: collide.Viscoelastic | None, soft=None) -> collide.Wall:
+        """The :class:`edmd.collide.Wall` object (``material``: the collision's, for ``viscoelastic``;
+        ``soft``: the eMD* contact law, the default normal law of walls with rule 'emdstar')."""
+        e_n = material if self.viscoelastic else self.e_n
+        if e_n is None:
+            e_n = 1.0 if soft is None else soft
+        return collide.Wall(e_n=e_n, beta=self.beta, e_t=self.e_t, mu=self.mu)
 
 
 class RunConfig(_Section):
@@ -377,14 +426,21 @@ mass = 1.0                # or set density = ... to give mass = density * partic
 
 [collision]
 rule = "elastic"          # "inelastic" (e_n), "rough" (e_n, beta or e_t = -beta, optional Coulomb mu),
-                          # "viscoelastic" (young, poisson, A: e_n(v) of viscoelastic spheres)
+                          # "viscoelastic" (young, poisson, A: e_n(v) of viscoelastic spheres),
+                          # "emdstar" (soft spheres, eMD*: contact = "hertz" or "dashpot", see below)
 # e_n = 0.9
 # beta = 0.0
 # tc = 1e-5               # TC model against inelastic collapse: elastic within tc of a previous collision
+# contact = "hertz"       # emdstar: "hertz" (young, poisson, A) or "dashpot" (k, gamma or e_n)
+# young = 1e7
+# poisson = 0.3
+# A = 1e-5
+# tables = "default"      # emdstar: "default" (shipped tables), "exact" (solve every contact) or a table file
+# communication = true    # emdstar: exception b) also ends the former partner's pending contact
 
 [walls]
 axes = []                 # axes closed by hard walls at +-L/2, e.g. ["z"]; the others are periodic
-e_n = 1.0                 # wall restitution (beta, e_t, mu as for rough particles)
+# e_n = 1.0               # wall restitution (beta, e_t, mu as for rough particles; emdstar: the contact law)
 
 [run]
 until_time = 20.0         # simulation time to reach

@@ -57,8 +57,8 @@ def build_simulation(cfg: Config, state: State | None = None) -> Simulation:
         )
     e = cfg.engine
     options = EngineOptions(neighbours=e.neighbours, skin=e.skin, resync_every=e.resync_every, events_per_bucket=e.events_per_bucket)
-    rule = cfg.collision.build()
-    walls = cfg.walls.build(cfg.collision.material())
+    rule = cfg.collision.build(float(state.mass.mean()))
+    walls = cfg.walls.build(cfg.collision.material(), getattr(rule, "contact", None))
     return Simulation(state, collision=rule, walls=walls, gravity=cfg.system.gravity, engine=options)
 
 
@@ -159,6 +159,8 @@ def summarize(sim: Simulation, thermo: Thermo | None) -> dict:
         "neighbours": sim.engine.mode,
         "machine": platform.platform(),
     }
+    if getattr(sim.engine, "emd_rule", None) is not None:
+        summary.update(sim.engine.emd_counters())
     if sim.engine.mode == "dem":
         summary["dt"] = sim.dt
         summary["particle_steps_per_second"] = st.n * sim.events / sim.wall_seconds if sim.wall_seconds > 0 else math.nan

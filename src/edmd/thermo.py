@@ -32,7 +32,7 @@ AXES = "xyz"
 
 # Columns that are running totals: summaries (the sweep results table) report their final value
 # and time-average every other column. Counters added to the table later belong here too.
-CUMULATIVE = ("time", "events", "collisions", "dissipated_energy")
+CUMULATIVE = ("time", "events", "collisions", "dissipated_energy", "emd_contacts", "emd_exceptions_a", "emd_exceptions_b", "emd_fallbacks")
 
 
 def pressure(state: State, d_kinetic_integral: float, d_virial: float, dt: float) -> float:
@@ -64,8 +64,10 @@ class Thermo(Observer):
     and, averaged over the interval that ends there, the ``pressure`` (kinetic + collision
     virial, physics.md §5.3; meaningful in periodic directions), the ``collision_rate`` per
     particle :math:`2\\Delta N_{\\rm coll}/(N\\Delta t)` and, for every axis closed by walls,
-    ``wall_pressure_<axis>``: the mean normal force per area on its two walls. The first row has
-    no interval (NaN).
+    ``wall_pressure_<axis>``: the mean normal force per area on its two walls. eMD* runs
+    (:class:`edmd.emdstar.EMDStar`) add the cumulative counters ``emd_contacts`` (A events),
+    ``emd_exceptions_a``, ``emd_exceptions_b`` and ``emd_fallbacks`` (physics.md §4.8); their
+    energies and temperatures use committed velocities. The first row has no interval (NaN).
 
     Example:
         >>> import edmd
@@ -113,6 +115,8 @@ class Thermo(Observer):
             for k in walls:
                 area = state.volume / state.box[k]
                 row[f"wall_pressure_{AXES[k]}"] = float((totals.wall_impulse[k] - last.wall_impulse[k]).sum()) / (2.0 * area * dt)
+        if getattr(sim.engine, "emd_rule", None) is not None:
+            row.update(sim.engine.emd_counters())
         self._last = totals
         self.rows.append(row)
         if self.path is not None:
@@ -140,7 +144,7 @@ class Thermo(Observer):
         return data
 
     def columns(self) -> list[str]:
-        """The table's columns: :data:`COLUMNS` plus one ``wall_pressure_<axis>`` per wall axis."""
+        """The table's columns: :data:`COLUMNS` plus one ``wall_pressure_<axis>`` per wall axis (and eMD* counters)."""
         return list(self.rows[0]) if self.rows else list(COLUMNS)
 
     def restore_data(self, data: dict):
@@ -148,8 +152,8 @@ class Thermo(Observer):
         super().restore_data(data)
         columns, ints = list(data["columns"]), set(data["integer_columns"])
         extra = columns[len(COLUMNS) :]
-        if columns[: len(COLUMNS)] != list(COLUMNS) or not all(c.startswith("wall_pressure_") for c in extra):
-            raise ValueError(f"thermo columns {columns} differ from this version's {list(COLUMNS)} (+ wall pressures)")
+        if columns[: len(COLUMNS)] != list(COLUMNS) or not all(c.startswith(("wall_pressure_", "emd_")) for c in extra):
+            raise ValueError(f"thermo columns {columns} differ from this version's {list(COLUMNS)} (+ wall pressures, eMD* counters)")
         table = np.asarray(data.get("rows", np.zeros((0, len(columns)))), np.float64)
         self.rows = [{c: int(v) if c in ints else float(v) for c, v in zip(columns, r)} for r in table]
         self._last = None if data["last"] is None else Totals.from_dict(data["last"])
