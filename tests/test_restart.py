@@ -119,6 +119,28 @@ def test_granular_run_with_tc_walls_and_gravity_restarts_bit_for_bit(tmp_path, d
     assert whole.totals().wall_collisions > 50
 
 
+def test_emdstar_run_with_pending_contacts_restarts_bit_for_bit(tmp_path, dim):
+    """eMD* with walls and gravity: pending contacts (increments, B times, partners) survive a checkpoint."""
+    from edmd.emdstar import EMDStar
+
+    periodic = [True] * (dim - 1) + [False]
+    s = edmd.maxwell_boltzmann(edmd.random_packing(300, 0.2, dim=dim, periodic=periodic, seed=9), 1.0, seed=10)
+    g = np.zeros(dim)
+    g[-1] = -0.5
+    physics = {"collision": EMDStar(edmd.Hertz(young=2e3, poisson=0.3, A=2e-3)), "gravity": g}
+    whole = _run(tmp_path / "whole", s, 4.0, physics=physics)
+    _run(tmp_path / "part", s, 2.3, physics=physics)
+    ck = read_checkpoint(tmp_path / "part" / "ck.gsd")
+    assert ck.state.has_pending
+    sim = load_checkpoint(tmp_path / "part" / "ck.gsd", _observers(tmp_path / "part"))
+    sim.run(until_time=4.0)
+    sim.close()
+    assert_same_files(tmp_path / "whole", tmp_path / "part")
+    assert sim.totals() == whole.totals()
+    counters = whole.engine.emd_counters()
+    assert counters["emd_contacts"] > 100 and whole.totals().wall_collisions > 10
+
+
 def test_wall_clock_interval_decides_only_what_is_written(tmp_path):
     s = _initial(3, 0.3)
     a = _run(tmp_path / "a", s, 2.0)
