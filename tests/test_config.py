@@ -89,3 +89,38 @@ def test_polydisperse_config(dim):
     s = build_state(cfg)
     assert s.radius.min() >= 0.4 and s.radius.max() <= 0.6
     assert isinstance(s, edmd.State)
+
+
+def test_emdstar_rule_from_config(tmp_path):
+    from edmd.emdstar import EMDStar
+    from edmd.runner import build_simulation
+
+    cfg = parse_config(
+        {
+            "system": {"n": 64, "packing_fraction": 0.05, "radius": 0.001, "density": 2500.0, "kT": 3.5e-6},
+            "collision": {"rule": "emdstar", "contact": "hertz", "young": 1e8, "poisson": 0.3, "A": 1e-6, "tables": "exact", "communication": False},
+        }
+    )
+    sim = build_simulation(cfg)
+    rule = sim.engine.rule
+    assert isinstance(rule, EMDStar) and rule.tables == "exact" and rule.communication is False
+    assert rule.contact == edmd.Hertz(1e8, 0.3, 1e-6)
+    assert sim.engine.wall.e_n == rule.contact  # walls default to the contact law
+    dashpot = parse_config({"collision": {"rule": "emdstar", "contact": "dashpot", "k": 1e4, "e_n": 0.8}}).collision.build(2.0)
+    assert dashpot.contact.central(2.0, 2.0, 0.5, 0.5, v_n=1.0).e_n == pytest.approx(0.8, rel=1e-12)
+
+
+@pytest.mark.parametrize(
+    "collision, message",
+    [
+        ({"rule": "emdstar", "young": 1e7, "poisson": 0.3}, "needs contact"),
+        ({"rule": "emdstar", "contact": "hertz", "young": 1e7, "poisson": 0.3, "k": 3.0}, "k not used by the 'hertz' contact law"),
+        ({"rule": "emdstar", "contact": "hertz", "young": 1e7, "poisson": 0.3, "tc": 1e-4}, "tc not used"),
+        ({"rule": "emdstar", "contact": "dashpot"}, "needs the spring constant k"),
+        ({"rule": "inelastic", "e_n": 0.9, "tables": "exact"}, "only used by rule = 'emdstar'"),
+        ({"rule": "emdstar", "contact": "hertz", "young": 1e7, "poisson": 0.3, "tables": "/no/such/table.npz"}, "no table file"),
+    ],
+)
+def test_emdstar_config_errors_name_the_problem(collision, message):
+    with pytest.raises((ConfigError, ValueError), match=message):
+        parse_config({"collision": collision}).collision.build()

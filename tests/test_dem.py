@@ -288,7 +288,7 @@ def test_config_sections():
         ({"integrator": {"kind": "dem"}}, "needs a \\[contact\\] section"),
         ({"contact": {"model": "dashpot", "k": 1.0}}, "used by integrator.kind = 'dem' only"),
         ({"integrator": {"kind": "dem"}, "contact": {"model": "hertz", "young": 1e7}}, "needs young and poisson"),
-        ({"integrator": {"kind": "dem"}, "contact": {"model": "dashpot", "k": 1.0, "young": 3.0}}, "young not used by model 'dashpot'"),
+        ({"integrator": {"kind": "dem"}, "contact": {"model": "dashpot", "k": 1.0, "young": 3.0}}, "young not used by the 'dashpot' contact law"),
         ({"integrator": {"kind": "dem"}, "contact": {"model": "dashpot", "k": 1.0, "gamma": 1.0, "e_n": 0.5}}, "gamma or e_n, not both"),
         ({"integrator": {"kind": "dem"}, "contact": {"model": "dashpot", "kk": 1.0}}, "contact.kk: unknown key \\(did you mean 'k'\\?\\)"),
         ({"integrator": {"kind": "dem"}, "contact": {"model": "hertz", "young": 1e7, "poisson": 0.6}}, "contact.poisson"),

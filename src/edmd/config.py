@@ -81,6 +81,36 @@ class SystemConfig(_Section):
         return self
 
 
+SOFT_KEYS = {"dashpot": ("k", "gamma", "e_n"), "hertz": ("young", "poisson", "A")}
+
+
+def _check_soft_law(model: str, section, unused: tuple[str, ...] = ()):
+    """A soft contact law in a section (``k``, ``gamma``, ``e_n`` / ``young``, ``poisson``, ``A``) is complete,
+    and neither the other law's keys nor ``unused`` are set."""
+    own = SOFT_KEYS[model]
+    foreign = [k for k in SOFT_KEYS["dashpot"] + SOFT_KEYS["hertz"] + unused if k not in own and getattr(section, k) is not None]
+    if foreign:
+        raise ValueError(f"{', '.join(foreign)} not used by the {model!r} contact law (it takes {', '.join(own)})")
+    if model == "dashpot":
+        if section.k is None:
+            raise ValueError("'dashpot' needs the spring constant k")
+        if section.gamma is not None and section.e_n is not None:
+            raise ValueError("'dashpot': give gamma or e_n, not both")
+    elif section.young is None or section.poisson is None:
+        raise ValueError("'hertz' needs young and poisson (and A, default 0)")
+
+
+def _build_soft_law(model: str, section, mass: float):
+    """The :class:`~edmd.contact.ContactModel` of a section (``mass``: the mean particle mass, for a dashpot's ``e_n``)."""
+    from .contact import Hertz, LinearDashpot
+
+    if model == "hertz":
+        return Hertz(section.young, section.poisson, section.A or 0.0)
+    if section.e_n is not None:
+        return LinearDashpot.from_restitution(section.e_n, section.k, mass)
+    return LinearDashpot(section.k, section.gamma or 0.0)
+
+
 class CollisionConfig(_Section):
     """``[collision]``: the collision rule (:mod:`edmd.collide`).
 
@@ -132,31 +162,14 @@ class CollisionConfig(_Section):
         return self
 
     def _emdstar_consistent(self):
-        own = {"hertz": ("young", "poisson", "A"), "dashpot": ("k", "gamma", "e_n")}
         if self.contact is None:
             raise ValueError("rule 'emdstar' needs contact = 'hertz' (young, poisson, A) or 'dashpot' (k, gamma or e_n)")
-        other = "dashpot" if self.contact == "hertz" else "hertz"
-        foreign = [k for k in own[other] + ("beta", "e_t", "mu", "tc") if k not in own[self.contact] and getattr(self, k) is not None]
-        if foreign:
-            raise ValueError(f"{', '.join(foreign)} not used by rule 'emdstar' with contact {self.contact!r}")
-        if self.contact == "hertz" and (self.young is None or self.poisson is None):
-            raise ValueError("contact 'hertz' needs young and poisson (and A, default 0)")
-        if self.contact == "dashpot":
-            if self.k is None:
-                raise ValueError("contact 'dashpot' needs the spring constant k")
-            if self.gamma is not None and self.e_n is not None:
-                raise ValueError("contact 'dashpot': give gamma or e_n, not both")
+        _check_soft_law(self.contact, self, unused=("beta", "e_t", "mu", "tc"))
         return self
 
     def soft_contact(self, mass: float):
         """The soft contact law of rule 'emdstar' (``mass``: the mean particle mass, for a dashpot's ``e_n``)."""
-        from .contact import Hertz, LinearDashpot
-
-        if self.contact == "hertz":
-            return Hertz(self.young, self.poisson, self.A or 0.0)
-        if self.e_n is not None:
-            return LinearDashpot.from_restitution(self.e_n, self.k, mass)
-        return LinearDashpot(self.k, self.gamma or 0.0)
+        return _build_soft_law(self.contact, self, mass)
 
     def material(self) -> collide.Viscoelastic | None:
         """The viscoelastic material, if given (not for rule 'emdstar', whose contact law is :meth:`soft_contact`)."""
@@ -255,28 +268,12 @@ class ContactConfig(_Section):
 
     @model_validator(mode="after")
     def _complete(self):
-        own = {"dashpot": ("k", "gamma", "e_n"), "hertz": ("young", "poisson", "A")}[self.model]
-        foreign = [k for k in ("k", "gamma", "e_n", "young", "poisson", "A") if k not in own and getattr(self, k) is not None]
-        if foreign:
-            raise ValueError(f"{', '.join(foreign)} not used by model {self.model!r} (it takes {', '.join(own)})")
-        if self.model == "dashpot":
-            if self.k is None:
-                raise ValueError("model 'dashpot' needs the spring constant k")
-            if self.gamma is not None and self.e_n is not None:
-                raise ValueError("give gamma or e_n, not both")
-        elif self.young is None or self.poisson is None:
-            raise ValueError("model 'hertz' needs young and poisson (and A, default 0)")
+        _check_soft_law(self.model, self)
         return self
 
     def build(self, mass: float):
         """The :class:`~edmd.contact.ContactModel` (``mass``: the mean particle mass, for ``e_n``)."""
-        from .contact import Hertz, LinearDashpot
-
-        if self.model == "hertz":
-            return Hertz(self.young, self.poisson, self.A or 0.0)
-        if self.e_n is not None:
-            return LinearDashpot.from_restitution(self.e_n, self.k, mass)
-        return LinearDashpot(self.k, self.gamma or 0.0)
+        return _build_soft_law(self.model, self, mass)
 
 
 class OutputConfig(_Section):
