@@ -50,17 +50,20 @@ def execute_b(p, t, P, count, emd, geo):
 
 
 @jit
-def relocation_blocked(x, y, z, r, i, j, t, P, grid, geo, walls, cbuf):
-    """Exception a) test: would a particle of radius ``r`` at ``(x, y, z)`` overlap a wall or a third particle?
+def relocation_blocked(p, x, y, z, i, j, t, P, grid, geo, walls, cbuf):
+    """Exception a) test: would particle ``p`` moved to ``(x, y, z)`` overlap a wall or a third particle?
 
     Candidates are the particles binned in the 3^d cells around the point: cells are at least
     as wide as the largest contact distance plus the list skin (list mode bins list centres,
     which lie within half a skin of the particles), so no overlapping particle is missed.
-    ``i`` and ``j`` (the pair itself) are skipped; third particles are taken at time ``t``.
+    ``i`` and ``j`` (the pair itself) are skipped; third particles are taken at time ``t``. A
+    third particle that ``p`` already overlaps (its former partner right after exception b,
+    still at the residual overlap of their contact) blocks only if the move deepens the overlap.
     """
-    p = (x, y, z)
+    r = P[p, L.R]
+    new = (x, y, z)
     for k in range(3):
-        if walls & (1 << k) and abs(p[k]) + r > 0.5 * geo[k]:
+        if walls & (1 << k) and abs(new[k]) + r > 0.5 * geo[k]:
             return True
     x, y, z = wrap3(x, y, z, geo)  # into the box: the point's own cell
     nc = cell_block(grid, cell_of_point(x, y, z, geo, grid), geo, cbuf, -1, 0)
@@ -71,8 +74,11 @@ def relocation_blocked(x, y, z, r, i, j, t, P, grid, geo, walls, cbuf):
                 kx, ky, kz, _vx, _vy, _vz = flight(P, k, t, geo)
                 dx, dy, dz = wrap3(x - kx, y - ky, z - kz, geo)
                 sig = r + P[k, L.R]
-                if dx * dx + dy * dy + dz * dz < sig * sig:
-                    return True
+                d2 = dx * dx + dy * dy + dz * dz
+                if d2 < sig * sig:
+                    ox, oy, oz = wrap3(P[p, L.X] - kx, P[p, L.Y] - ky, P[p, L.Z] - kz, geo)
+                    if d2 < ox * ox + oy * oy + oz * oz:
+                        return True
             k = grid[1][k]
     return False
 

@@ -325,9 +325,8 @@ def _emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt,
         return 2
     work = emd[9]
     walls = ip[L.IP_WALLS]
-    ri, rj = P[i, L.R], P[j, L.R]
-    if relocation_blocked(work[4, 0], work[4, 1], work[4, 2], ri, i, j, t, P, grid, geo, walls, cbuf) or relocation_blocked(
-        work[5, 0], work[5, 1], work[5, 2], rj, i, j, t, P, grid, geo, walls, cbuf
+    if relocation_blocked(i, work[4, 0], work[4, 1], work[4, 2], i, j, t, P, grid, geo, walls, cbuf) or relocation_blocked(
+        j, work[5, 0], work[5, 1], work[5, 2], i, j, t, P, grid, geo, walls, cbuf
     ):
         cnt[L.C_EMD_EXC_A] += 1
         return 2
