@@ -18,11 +18,12 @@ A soft contact (linear dashpot or viscoelastic Hertz, :mod:`edmd.contact`) is ma
   pair follows a surrogate path. B events come before A events at equal times.
 
 Exceptions (counted in the thermo output): **a)** the relocated pair would overlap a third
-particle or a wall, and **b)** a particle with a pending B meets a third particle. a) resolves
+particle or a wall, and **b)** a particle with a pending B meets a third particle or a wall. a) resolves
 the contact by the instantaneous rule with the contact law's central :math:`e_n(v_n)` (as
 do pairs found overlapping and approaching, and failed solves: ``fallbacks``); b) executes the
 pending B now (with ``communication``, also the former partner's) and re-tests the approach.
-Walls use the instantaneous rule with the same force law (:math:`\mu = m_i`, :math:`R_{\rm eff} = R_i`).
+Walls use the instantaneous rule with the same force law (:math:`\mu = m_i`, :math:`R_{\rm eff} = R_i`),
+on the particle's own velocity (a pending contact is completed first, exception b).
 Between A and B the relative kinetic energy of the pair is not carried by velocities:
 observables use the *committed* velocities :math:`\mathbf v + \boldsymbol\Delta`
 (:attr:`edmd.State.committed_velocity`).

@@ -159,7 +159,7 @@ def summarize(sim: Simulation, thermo: Thermo | None) -> dict:
         "neighbours": sim.engine.mode,
         "machine": platform.platform(),
     }
-    if getattr(sim.engine, "emd_rule", None) is not None:
+    if sim.engine.emd_rule is not None:
         summary.update(sim.engine.emd_counters())
     if sim.engine.mode == "dem":
         summary["dt"] = sim.dt

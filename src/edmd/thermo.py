@@ -115,7 +115,7 @@ class Thermo(Observer):
             for k in walls:
                 area = state.volume / state.box[k]
                 row[f"wall_pressure_{AXES[k]}"] = float((totals.wall_impulse[k] - last.wall_impulse[k]).sum()) / (2.0 * area * dt)
-        if getattr(sim.engine, "emd_rule", None) is not None:
+        if sim.engine.emd_rule is not None:
             row.update(sim.engine.emd_counters())
         self._last = totals
         self.rows.append(row)

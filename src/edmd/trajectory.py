@@ -277,7 +277,7 @@ class Trajectory(Observer):
     def observe(self, sim: Simulation, state: State, totals: Totals):
         if self._file is None:
             self._file = gsd.hoomd.open(self.path, self.mode, precision="double")
-        self._file.append(state_to_frame(state, totals, pending=getattr(sim.engine, "emd_rule", None) is not None))
+        self._file.append(state_to_frame(state, totals, pending=sim.engine.emd_rule is not None))
         self._file.flush()
 
     def checkpoint_data(self) -> dict:

@@ -291,6 +291,21 @@ def _rebin(p, t, P, image, grid, lists, geo, mode, fp, cbuf):
 
 
 @jit
+def _finish_contact(p, i, j, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd):
+    """Exception b) (physics.md §4.8): ``p``, still in a soft contact, meets a third body at ``t``.
+
+    Its pending B event is executed now and, with post-collisional communication, that of its
+    former partner too (re-predicted here unless it is ``i`` or ``j``, which the caller handles).
+    """
+    pj = emd[2]
+    other = pj[p]
+    execute_b(p, t, P, count, emd, geo)
+    if ip[L.IP_EMD_COMM] and other != i and other != j and pj[other] == p:
+        execute_b(other, t, P, count, emd, geo)
+        _repredict(other, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd[1])
+
+
+@jit
 def _emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt, cbuf, emd):
     """A pair ``(i, j)`` (streamed to ``t``) reaches contact under eMD* (physics.md §4.8).
 
@@ -304,19 +319,15 @@ def _emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt,
     """
     P, mass, omega, inertia, image, count, tlast = part
     pdv, ptb, pj = emd[0], emd[1], emd[2]
-    if is_pending(emd, i) or is_pending(emd, j):
+    exception_b = is_pending(emd, i) or is_pending(emd, j)
+    if exception_b:
         cnt[L.C_EMD_EXC_B] += 1
         for p in (np.int64(i), np.int64(j)):
             if is_pending(emd, p):
-                other = pj[p]
-                execute_b(p, t, P, count, emd, geo)
-                if ip[L.IP_EMD_COMM] and other != i and other != j and pj[other] == p:
-                    execute_b(other, t, P, count, emd, geo)
-                    _repredict(other, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb)
-        dx, dy, dz, gx, gy, gz = separation(P, i, j, t, geo)
-        if dx * gx + dy * gy + dz * gz >= 0.0:
-            return 0
+                _finish_contact(p, i, j, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd)
     dx, dy, dz, gx, gy, gz = separation(P, i, j, t, geo)
+    if exception_b and dx * gx + dy * gy + dz * gz >= 0.0:
+        return 0
     sigma = P[i, L.R] + P[j, L.R]
     if dx * dx + dy * dy + dz * dz < (sigma * (1.0 - 1e-9)) ** 2:
         return 2  # overlapping and approaching: no contact geometry to start from
@@ -401,6 +412,9 @@ def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, etab
                 _repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb)
                 continue
             if kind >= L.AUX_WALL:
+                if is_pending(emd, i):  # a wall is a third body too: end the soft contact first
+                    cnt[L.C_EMD_EXC_B] += 1
+                    _finish_contact(i, i, -1, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd)
                 advance(P, i, t, geo)
                 integrate_kinetic(acc, t, geo, total_mass)
                 collide_wall(t, P, mass, omega, inertia, tlast, i, (kind - L.AUX_WALL) >> 1, (kind - L.AUX_WALL) & 1, fp, ip, etab, acc)
