@@ -351,7 +351,7 @@ class Engine:
 
     def emd_counters(self) -> dict[str, int]:
         """eMD* counters (physics.md §4.8): contacts handled by A/B events, exceptions a) and b),
-        instantaneous fallbacks, and B events executed on schedule."""
+        and contacts resolved by the instantaneous rule."""
         c = self.cnt
         return {
             "emd_contacts": int(c[L.C_EMD_A]),

@@ -46,8 +46,7 @@ ST_OVERLAP = 6  # debug mode found an overlap or a contact away from sigma
     C_EMD_EXC_A,  # eMD* exception a): the relocation would overlap a third particle or a wall
     C_EMD_EXC_B,  # eMD* exception b): a particle with a pending B event reached a new contact (particle or wall)
     C_EMD_FALLBACK,  # eMD*: contacts resolved by the instantaneous rule (exception a, overlapping pairs)
-    C_EMD_B,  # eMD*: B events executed on schedule
-) = range(16)
+) = range(15)
 N_COUNTERS = 16
 
 # float accumulators (acc array)

@@ -408,7 +408,6 @@ def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, etab
             cnt[L.C_AUX] += 1
             if kind == L.AUX_B:
                 execute_b(i, t, P, count, emd, geo)
-                cnt[L.C_EMD_B] += 1
                 _repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb)
                 continue
             if kind >= L.AUX_WALL:
