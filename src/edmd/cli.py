@@ -60,7 +60,7 @@ def run(
     from .runner import restart_directory, run_directory
 
     if not any((Path(__file__).parent / "_core" / "__pycache__").glob("loop.run_events-*.nbi")):
-        console.print("[dim]first run on this machine: compiling the core (about a minute, cached afterwards)[/]")
+        console.print("[dim]first run on this machine: compiling the core (a few minutes, cached afterwards)[/]")
 
     try:
         if restart is not None:
