@@ -134,7 +134,7 @@ def predict_aux(i, t, P, ev, grid, lists, geo, mode, fp, ip, ptb):
         best, kind = _wall_event(i, t, P, geo, walls, ev[3][i] - t, ev[4][i])
         ev[3][i] = t + best
         ev[4][i] = kind
-    if ptb[i] < ev[3][i]:
+    if ip[L.IP_EMD] and ptb[i] < ev[3][i]:  # (hard spheres never touch ptb: no cache miss)
         ev[3][i] = ptb[i]
         ev[4][i] = L.AUX_B
 
