@@ -1,4 +1,4 @@
-"""Command line: ``edmd run``, ``edmd init``, ``edmd sweep``, ``edmd export``, ``edmd plot``, ``edmd tables``."""
+"""Command line: ``edmd run``, ``edmd init``, ``edmd sweep``, ``edmd export``, ``edmd plot``, ``edmd movie``, ``edmd tables``."""
 
 from __future__ import annotations
 
@@ -234,6 +234,31 @@ def tables_info(path: Path = typer.Argument(..., help="A table file (.npz).")):
     console.print(repr(tab))
     for key, value in sorted(tab.meta.items()):
         console.print(f"  {key}: {value}")
+
+
+@tables_app.command("plot")
+def tables_plot(
+    path: Path = typer.Argument(None, help="A table file (.npz); or --model for a default table."),
+    model: str = typer.Option(None, "--model", "-m", help="Draw the default table of this contact model: dashpot or hertz."),
+    out: Path = typer.Option(None, "--out", "-o", help="Output PNG (default: restitution_MODEL.png, or the table file's name with .png)."),
+    damping: str = typer.Option("", "--damping", "-d", help="Damping values, one row each, e.g. '0,0.1,0.3' (default: low, middle, high end of the table)."),
+):
+    """Draw Phi, eps_hat, D and tau_c of a table against softness and eccentricity, one row per damping."""
+    from .tableplot import plot_table
+    from .tables import TableError, default_table
+
+    if (path is None) == (model is None):
+        _fail("give a table file or --model dashpot|hertz (not both)")
+    out = out or (path.with_suffix(".png") if path is not None else Path(f"restitution_{model}.png"))
+    try:
+        values = [float(x) for x in damping.split(",")] if damping else None
+    except ValueError:
+        _fail(f"--damping must be numbers separated by commas, got {damping!r}")
+    try:
+        plot_table(path if path is not None else default_table(model), damping=values, out=out)
+    except (TableError, OSError) as exc:
+        _fail(str(exc))
+    console.print(f"wrote {out}")
 
 
 def _print_check(res: dict):
