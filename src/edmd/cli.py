@@ -120,6 +120,25 @@ def plot(
 
 
 @app.command()
+def movie(
+    source: Path = typer.Argument(Path("edmd-run"), help="A run directory (its trajectory.gsd) or a GSD file."),
+    out: Path = typer.Option(None, "--out", "-o", help="Movie file: .gif, or .mp4 (needs ffmpeg). Default: movie.gif in the run directory."),
+    color: str = typer.Option("speed", "--color", help="Colouring: 'speed' (|v| / rms speed) or 'density' (local packing fraction)."),
+    fps: int = typer.Option(10, "--fps", min=1, help="Frames per second."),
+    frames: int = typer.Option(None, "--frames", min=1, help="At most this many frames (every k-th trajectory frame)."),
+    max_particles: int = typer.Option(20_000, "--max-particles", min=1, help="Draw at most this many particles (a fixed random subset)."),
+):
+    """Make a movie of a 2D run or of the z = 0 slab of a 3D run, coloured by speed or local density."""
+    from .movie import make_movie
+
+    try:
+        path = make_movie(source, out, color_by=color, fps=fps, frames=frames, max_particles=max_particles)
+    except (StateError, ValueError, OSError) as exc:
+        _fail(str(exc))
+    console.print(f"wrote {path}")
+
+
+@app.command()
 def init(
     path: Path = typer.Argument(Path("edmd.toml"), help="Where to write the example configuration."),
     force: bool = typer.Option(False, "--force", help="Overwrite an existing file."),
