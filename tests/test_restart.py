@@ -28,7 +28,7 @@ def _initial(dim, eta):
 def _observers(d: Path, ck_interval=0.5, wall=None):
     return [
         Thermo(0.25, path=d / "thermo.csv"),
-        Trajectory(d / "traj.gsd", 0.5),
+        Trajectory(d / "traj.gsd", 0.25),  # a frame at 2.25: past the checkpoint at 2.0 where "part" runs are cut
         Checkpoint(d / "ck.gsd", ck_interval, wall_interval=wall),
     ]
 
@@ -44,7 +44,7 @@ def _run(d: Path, state, until, e_n=1.0, engine=None, physics=None, **kw):
 
 
 def assert_same_files(a: Path, b: Path, traj="traj.gsd"):
-    """Thermo CSV byte for byte; every trajectory frame chunk for chunk."""
+    """Thermo CSV byte for byte; every trajectory frame chunk for chunk, then the whole file byte for byte."""
     assert (a / "thermo.csv").read_bytes() == (b / "thermo.csv").read_bytes()
     with gsd.hoomd.open(a / traj) as fa, gsd.hoomd.open(b / traj) as fb:
         assert len(fa) == len(fb) > 1
@@ -54,6 +54,7 @@ def assert_same_files(a: Path, b: Path, traj="traj.gsd"):
             assert x.log.keys() == y.log.keys()
             for k in x.log:
                 assert np.array_equal(x.log[k], y.log[k]), k
+    assert (a / traj).read_bytes() == (b / traj).read_bytes()
 
 
 def test_checkpoint_holds_the_exact_state_and_engine(tmp_path, dim):
@@ -171,7 +172,7 @@ def test_bad_checkpoints_are_clear_errors(tmp_path):
         read_checkpoint(tmp_path / "plain.gsd")
     _run(tmp_path / "a", _initial(3, 0.3), 1.0)
     (tmp_path / "a" / "traj.gsd").unlink()
-    with pytest.raises(CheckpointError, match="fewer than the 3 the checkpoint expects"):
+    with pytest.raises(CheckpointError, match="fewer than the 5 the checkpoint expects"):
         load_checkpoint(tmp_path / "a" / "ck.gsd", _observers(tmp_path / "a"))
 
 

@@ -1,12 +1,12 @@
 """GSD files: exact round trip of every field, frame contents, readers."""
 
+import gsd.fl
 import gsd.hoomd
 import numpy as np
 import pytest
 
 import edmd
 from edmd import StateError, Trajectory, read_state, write_state
-from edmd.export import csv_columns, export_frame, write_csv, write_xyz
 from edmd.trajectory import frame_count, iter_states, truncate_frames
 
 
@@ -85,18 +85,61 @@ def test_freud_reads_a_frame(tmp_path, dim):
     assert len(pairs) == 0  # no overlaps seen through freud either
 
 
+def _trajectory(path, until, interval=0.5, n=108):
+    sim = edmd.Simulation(edmd.maxwell_boltzmann(edmd.lattice(n, 0.2), 1.0, seed=4))
+    sim.add(Trajectory(path, interval=interval, start=0.25))
+    sim.run(until_time=until)
+    sim.close()
+    return sim
+
+
+def test_step_is_the_event_count(tmp_path):
+    sim = _trajectory(tmp_path / "t.gsd", 1.25)
+    with gsd.hoomd.open(tmp_path / "t.gsd") as f:
+        steps = [int(fr.configuration.step) for fr in f]
+        assert steps == [int(fr.log["events"][0]) for fr in f]
+    assert steps[-1] == sim.events and np.all(np.diff(steps) > 0)
+
+
 def test_mdanalysis_reads_a_trajectory(tmp_path):
     mda = pytest.importorskip("MDAnalysis")
-    sim = edmd.Simulation(edmd.maxwell_boltzmann(edmd.lattice(108, 0.2), 1.0))
+    _trajectory(tmp_path / "t.gsd", 1.25)
+    # the documented mapping: frame k is at time_offset + k * dt (MDAnalysis ignores the step)
+    u = mda.Universe(str(tmp_path / "t.gsd"), dt=0.5, time_offset=0.25)
+    assert len(u.trajectory) == 3 and len(u.atoms) == 108
+    states = list(iter_states(tmp_path / "t.gsd"))
+    with gsd.hoomd.open(tmp_path / "t.gsd") as f:
+        events = [int(fr.log["events"][0]) for fr in f]
+    for ts, s, e in zip(u.trajectory, states, events):
+        assert ts.time == pytest.approx(s.time, rel=1e-15) and ts.data["step"] == e
+    assert [s.time for s in states] == [0.25, 0.75, 1.25]
+    u.trajectory[-1]
+    assert np.allclose(u.atoms.positions, states[-1].points, atol=1e-5)
+    assert np.allclose(u.dimensions[:3], states[-1].box, rtol=1e-6)
+
+
+def test_box_is_stored_once_in_single_precision_and_exactly_under_log(tmp_path):
+    s = edmd.lattice(32, 0.2)
+    assert not np.array_equal(s.box.astype(np.float32), s.box)  # this box needs double precision
+    sim = edmd.Simulation(edmd.maxwell_boltzmann(s, 1.0))
     sim.add(Trajectory(tmp_path / "t.gsd", interval=0.5))
     sim.run(until_time=1.0)
     sim.close()
-    u = mda.Universe(str(tmp_path / "t.gsd"))
-    assert len(u.trajectory) == 3 and len(u.atoms) == 108
-    u.trajectory[-1]
-    final = read_state(tmp_path / "t.gsd")
-    assert np.allclose(u.atoms.positions, final.points, atol=1e-5)
-    assert np.allclose(u.dimensions[:3], final.box, rtol=1e-6)
+    with gsd.fl.open(str(tmp_path / "t.gsd"), "r") as f:
+        assert [f.chunk_exists(k, "configuration/box") for k in range(f.nframes)] == [True, False, False]
+        assert np.array_equal(f.read_chunk(0, "configuration/box")[:3], s.box.astype(np.float32))
+        assert all(np.array_equal(f.read_chunk(k, "log/configuration/box"), s.box) for k in range(f.nframes))
+    assert np.array_equal(read_state(tmp_path / "t.gsd").box, s.box)
+
+
+def test_truncated_trajectory_is_byte_for_byte_the_shorter_one(tmp_path):
+    # enough frames that GSD grows its index: the frames are replayed as the writer wrote them
+    _trajectory(tmp_path / "long.gsd", 4.0, interval=0.05, n=27)
+    _trajectory(tmp_path / "short.gsd", 3.0, interval=0.05, n=27)
+    frames = frame_count(tmp_path / "short.gsd")
+    assert frame_count(tmp_path / "long.gsd") > frames > 50
+    truncate_frames(tmp_path / "long.gsd", frames)
+    assert (tmp_path / "long.gsd").read_bytes() == (tmp_path / "short.gsd").read_bytes()
 
 
 def test_frames_selection_and_truncation(tmp_path):
@@ -115,63 +158,3 @@ def test_frames_selection_and_truncation(tmp_path):
     assert all(np.array_equal(a.velocity, b) for a, b in zip(iter_states(p), before))
     with pytest.raises(StateError, match="fewer than the 4"):
         truncate_frames(p, 4)
-
-
-# ---------------------------------------------------------------------------- export
-def test_export_csv_is_exact(tmp_path, dim):
-    s = _state(dim)
-    write_csv(tmp_path / "f.csv", s)
-    table = np.genfromtxt(tmp_path / "f.csv", delimiter=",", names=True)
-    assert list(table.dtype.names) == csv_columns(dim)
-    axes = "xyz"[:dim]
-    assert np.array_equal(np.column_stack([table[a] for a in axes]), s.position)
-    assert np.array_equal(np.column_stack([table["v" + a] for a in axes]), s.velocity)
-    assert np.array_equal(table["radius"], s.radius) and np.array_equal(table["inertia"], s.inertia)
-    assert np.array_equal(np.column_stack([table["image_" + a] for a in axes]), s.image)
-    spin = table["omega_z"] if dim == 2 else np.column_stack([table["omega_" + a] for a in "xyz"])
-    assert np.array_equal(spin, s.angular_velocity)
-
-
-def _read_xyz(path):
-    lines = path.read_text().splitlines()
-    header = lines[1]
-    rows = np.array([[float(x) for x in line.split()[1:]] for line in lines[2:]])
-    return int(lines[0]), header, rows
-
-
-def test_export_extended_xyz(tmp_path, dim):
-    s = _state(dim)
-    write_xyz(tmp_path / "f.xyz", s)
-    n, header, rows = _read_xyz(tmp_path / "f.xyz")
-    assert n == s.n and f"Time={s.time!r}" in header
-    assert ('pbc="T T T"' if dim == 3 else 'pbc="T T F"') in header
-    assert np.allclose(rows[:, :dim], s.position + s.box / 2, rtol=0, atol=1e-12 * s.box.max())
-    assert np.all((rows[:, :dim] >= 0) & (rows[:, :dim] < s.box))
-    assert np.array_equal(rows[:, 3 : 3 + dim], s.velocity)
-    assert np.array_equal(rows[:, 6], s.radius) and np.array_equal(rows[:, 7], s.mass)
-    assert np.array_equal(rows[:, 12:12 + dim], s.image)
-
-
-def test_ase_reads_the_extended_xyz(tmp_path, dim):
-    ase_io = pytest.importorskip("ase.io")
-    s = _state(dim)
-    write_xyz(tmp_path / "f.xyz", s)
-    atoms = ase_io.read(tmp_path / "f.xyz", format="extxyz")
-    assert len(atoms) == s.n
-    assert np.allclose(atoms.cell.lengths()[:dim], s.box)
-    assert list(atoms.pbc) == [True] * dim + [False] * (3 - dim)
-    assert np.allclose(atoms.positions[:, :dim], s.position + s.box / 2)
-    assert np.allclose(atoms.arrays["velo"][:, :dim], s.velocity) and np.allclose(atoms.arrays["radius"], s.radius)
-
-
-def test_export_frame_chooses_the_format(tmp_path):
-    sim = edmd.Simulation(edmd.maxwell_boltzmann(edmd.lattice(32, 0.2), 1.0))
-    sim.add(Trajectory(tmp_path / "trajectory.gsd", interval=0.5))
-    sim.run(until_time=1.0)
-    sim.close()
-    s = export_frame(tmp_path, tmp_path / "out.csv", frame=1)
-    assert s.time == 0.5 and (tmp_path / "out.csv").exists()
-    with pytest.raises(ValueError, match="use a .xyz, .extxyz or .csv"):
-        export_frame(tmp_path, tmp_path / "out.pdb")
-    with pytest.raises(StateError, match="no GSD file"):
-        export_frame(tmp_path / "missing.gsd", tmp_path / "x.xyz")

@@ -40,11 +40,14 @@ def _xyz_cell(state: State) -> tuple[np.ndarray, np.ndarray]:
 def write_xyz(path: str | os.PathLike, state: State):
     """Write ``state`` as one extended-XYZ frame (ASE's ``extxyz``, read by OVITO).
 
-    Columns: ``species`` (``X``, ASE's dummy element), ``pos``, ``velo``, ``radius``, ``mass``,
-    ``moment_inertia``, ``angular_velocity`` (3 components; ``(0, 0, omega_z)`` in 2D) and
-    ``image``; the comment line holds ``Lattice``, ``pbc`` and ``Time``. Positions are shifted by
-    ``+L/2`` into the cell ``[0, L)`` that ASE and OVITO expect (edmd's box is ``[-L/2, L/2)``).
-    2D states become a slab one particle diameter thick (``pbc`` false along ``z``).
+    Columns: ``species`` (``X``, ASE's dummy element), ``pos``, ``velo`` (OVITO's velocity),
+    ``momenta`` (``m v``, ASE's: ``Atoms.get_velocities()`` divides them by ``masses``),
+    ``radius``, ``mass`` (OVITO's) and ``masses`` (ASE's ``get_masses()``), ``moment_inertia``,
+    ``angular_velocity`` (3 components; ``(0, 0, omega_z)`` in 2D) and ``image``; the comment
+    line holds ``Lattice``, ``pbc`` and ``Time``. Neither reader converts units: the numbers are
+    edmd's reduced units. Positions are shifted by ``+L/2`` into the cell ``[0, L)`` that ASE and
+    OVITO expect (edmd's box is ``[-L/2, L/2)``). 2D states become a slab one particle diameter
+    thick (``pbc`` false along ``z``).
 
     Example:
         >>> import edmd, tempfile, os
@@ -59,14 +62,15 @@ def write_xyz(path: str | os.PathLike, state: State):
     vel[:, : state.dim] = state.velocity
     image = np.zeros((state.n, 3))
     image[:, : state.dim] = state.image
-    cols = np.column_stack([pos, vel, state.radius, state.mass, state.inertia, _spin3(state), image])
+    m = state.mass
+    cols = np.column_stack([pos, vel, m[:, None] * vel, state.radius, m, m, state.inertia, _spin3(state), image])
     lattice = " ".join(f"{x:.17g}" for x in np.diag(lengths).ravel())
     pbc = " ".join("T" if k < state.dim and state.periodic[k] else "F" for k in range(3))
     header = (
-        f'Lattice="{lattice}" Properties=species:S:1:pos:R:3:velo:R:3:radius:R:1:mass:R:1:'
+        f'Lattice="{lattice}" Properties=species:S:1:pos:R:3:velo:R:3:momenta:R:3:radius:R:1:mass:R:1:masses:R:1:'
         f'moment_inertia:R:1:angular_velocity:R:3:image:I:3 Time={state.time:.17g} pbc="{pbc}"'
     )
-    fmt = "X " + " ".join(["%.17g"] * 12) + " %d %d %d"
+    fmt = "X " + " ".join(["%.17g"] * 16) + " %d %d %d"
     with atomic_path(path) as tmp:
         np.savetxt(tmp, cols, fmt=fmt, header=f"{state.n}\n{header}", comments="")
 

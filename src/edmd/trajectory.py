@@ -1,11 +1,15 @@
 """Trajectories in GSD 5, double precision (readable by HOOMD-blue, OVITO, freud, MDAnalysis).
 
 Standard chunks: positions, velocities, diameters, masses, moments of inertia, images, box,
-dimensions, orientations (identity quaternions: spheres have no orientation) and angular
+dimensions, step, orientations (identity quaternions: spheres have no orientation) and angular
 momenta in HOOMD's convention (``particles/angmom``, see :func:`angmom`). Under ``log/``: the
 continuous ``time``, the ``events`` and ``collisions`` counters, the exact double-precision box
-(``log/configuration/box``; GSD stores the standard box in single precision), the periodic
-flags, the radii and ``log/particles/angular_velocity``.
+(``log/configuration/box``), the periodic flags, the radii and ``log/particles/angular_velocity``.
+
+``configuration/step`` is the cumulative event count (``log/events``): it grows with time, at no
+fixed rate. A frame's time is ``log/time``; trajectories space frames evenly, ``start + k *
+interval``. ``configuration/box`` is the box rounded to single precision (gsd.hoomd casts the
+box to float32 even in double-precision files): the exact box is ``log/configuration/box``.
 """
 
 from __future__ import annotations
@@ -54,7 +58,8 @@ def state_to_frame(state: State, totals: Totals | None = None, pending: bool | N
     n, d = state.n, state.dim
     f = gsd.hoomd.Frame()
     f.configuration.dimensions = d
-    box = np.zeros(6)
+    f.configuration.step = 0 if totals is None else totals.events
+    box = np.zeros(6, np.float32)  # what GSD stores: the exact box is log/configuration/box
     box[:d] = state.box
     f.configuration.box = box
     f.particles.N = n
@@ -199,7 +204,9 @@ def iter_states(path: str | os.PathLike, start: int = 0, stop: int | None = None
 def truncate_frames(path: str | os.PathLike, frames: int):
     """Keep only the first ``frames`` frames of a GSD file (rewritten atomically if longer).
 
-    Used on restart: frames written after the checkpoint by the interrupted run are dropped.
+    Used on restart: frames written after the checkpoint by the interrupted run are dropped. The
+    frames are written again as :class:`Trajectory` wrote them, so the file is byte for byte the
+    one a run that stopped after ``frames`` frames leaves.
     """
     have = frame_count(path)
     if have < frames:
@@ -209,7 +216,14 @@ def truncate_frames(path: str | os.PathLike, frames: int):
     with atomic_path(path) as tmp:
         with gsd.hoomd.open(str(path), "r") as src, gsd.hoomd.open(str(tmp), "w", precision="double") as dst:
             for k in range(frames):
-                dst.append(src[k])
+                _append(dst, src[k])
+
+
+def _append(traj: gsd.hoomd.HOOMDTrajectory, frame: gsd.hoomd.Frame):
+    """Append one frame and flush it: how :class:`Trajectory` writes, so that replaying its
+    frames (:func:`truncate_frames`) gives the same bytes."""
+    traj.append(frame)
+    traj.flush()
 
 
 def read_state(path: str | os.PathLike, frame: int = -1, check_overlaps: bool = True) -> State:
@@ -277,8 +291,7 @@ class Trajectory(Observer):
     def observe(self, sim: Simulation, state: State, totals: Totals):
         if self._file is None:
             self._file = gsd.hoomd.open(self.path, self.mode, precision="double")
-        self._file.append(state_to_frame(state, totals, pending=sim.engine.emd_rule is not None))
-        self._file.flush()
+        _append(self._file, state_to_frame(state, totals, pending=sim.engine.emd_rule is not None))
 
     def checkpoint_data(self) -> dict:
         return {**super().checkpoint_data(), "frames": self.frames}
