@@ -67,7 +67,7 @@ def local_packing_fraction(state: State, radius: float | None = None) -> np.ndar
     points = state.position + 0.5 * box
     points = np.where(periodic, np.mod(points, box), points)
     points = np.where(periodic & (points >= box), 0.0, points)  # mod may round up to L
-    tree = cKDTree(points, boxsize=np.where(periodic, box, np.inf))
+    tree = cKDTree(points, boxsize=np.where(periodic, box, box + 2.0 * r))  # a closed axis: no image within r
     counts = tree.query_ball_point(points, r, return_length=True)
     return counts * float(np.mean(state.radius**state.dim)) / r**state.dim
 
