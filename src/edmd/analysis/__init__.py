@@ -17,10 +17,11 @@ from ._common import compressibility_factor, contact_value, maxwell_speed_pdf
 from .collisions import CollisionStatistics, impact_angle_pdf, impact_speed_pdf
 from .dynamics import MSD, msd_window
 from .structure import RDF, pair_histogram
-from .thermal import HaffLaw, Pressure, Temperature, VelocityDistribution, sonine_a2
+from .thermal import AlgebraicCooling, HaffLaw, Pressure, Temperature, VelocityDistribution, sonine_a2
 
 __all__ = [
     "MSD",
+    "AlgebraicCooling",
     "RDF",
     "CollisionStatistics",
     "HaffLaw",

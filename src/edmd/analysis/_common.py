@@ -4,29 +4,40 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 
 from ..state import State, StateError
 
 
-def as_states(system) -> list[State]:
-    """One State, an iterable of States, or a GSD file (every frame) as a list of States."""
+def each_state(system) -> Iterator[State]:
+    """One State, an iterable of States, or a GSD file (every frame), one State at a time.
+
+    Frames of a GSD file are read as they are needed, so a long trajectory never sits in memory.
+
+    Example:
+        >>> import edmd
+        >>> [s.n for s in each_state([edmd.lattice(8, 0.1), edmd.lattice(27, 0.1)])]
+        [8, 27]
+    """
     if isinstance(system, State):
-        return [system]
+        yield system
+        return
     if isinstance(system, (str, os.PathLike)):
         from ..trajectory import iter_states
 
-        states = list(iter_states(system, check_overlaps=False))
+        source = iter_states(system, check_overlaps=False)
     elif isinstance(system, Iterable):
-        states = list(system)
+        source = system
     else:
         raise TypeError(f"expected a State, States or a GSD file, got {type(system).__name__}")
-    if not states:
+    count = 0
+    for state in source:
+        if not isinstance(state, State):
+            raise TypeError(f"expected States, got {type(state).__name__}")
+        count += 1
+        yield state
+    if count == 0:
         raise StateError("no frames to analyse")
-    bad = [type(s).__name__ for s in states if not isinstance(s, State)]
-    if bad:
-        raise TypeError(f"expected States, got {bad[0]}")
-    return states
 
 
 def contact_value(eta: float, dim: int) -> float:

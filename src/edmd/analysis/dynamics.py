@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._common import as_states, axes
+from ._common import axes, each_state
 
 
 def _autocorrelation(x: np.ndarray) -> np.ndarray:
@@ -68,24 +68,35 @@ class MSD:
         self.mode = mode
 
     def compute(self, system) -> MSD:
-        """From several States (a time series) or a GSD file; returns ``self``."""
-        states = as_states(system)
-        if len(states) < 2:
+        """From several States (a time series) or a GSD file, read frame by frame; returns ``self``.
+
+        Mode ``"direct"`` keeps only the first frame's positions; ``"window"`` keeps every
+        frame's (unwrapped positions only, not the States).
+        """
+        times, first, msd, kept = [], None, [], []
+        for s in each_state(system):
+            r = s.unwrapped_position
+            first = r if first is None else first
+            times.append(s.time)
+            if self.mode == "direct":
+                msd.append(float(np.sum((r - first) ** 2, axis=1).mean()))
+            else:
+                kept.append(r)
+        if len(times) < 2:
             raise ValueError("the MSD needs at least two frames")
-        times = np.array([s.time for s in states])
-        r = np.stack([s.unwrapped_position for s in states])
+        times = np.array(times)
         self.lag_times = times - times[0]
         if self.mode == "direct":
-            self.msd = np.sum((r - r[0]) ** 2, axis=2).mean(axis=1)
+            self.msd = np.array(msd)
         else:
             steps = np.diff(times)
             if not np.allclose(steps, steps[0], rtol=1e-9, atol=0.0):
                 raise ValueError("mode 'window' needs equally spaced frames; use mode='direct'")
-            self.lag_times = steps[0] * np.arange(len(states))
-            self.msd = msd_window(r)
-        self.dim = states[0].dim
+            self.lag_times = steps[0] * np.arange(len(times))
+            self.msd = msd_window(np.stack(kept))
+        self.dim = s.dim
         half = len(self.lag_times) // 2
-        self.diffusion_coefficient = self.fit(self.lag_times[max(half, 1)], self.lag_times[-1]) if len(states) > 2 else np.nan
+        self.diffusion_coefficient = self.fit(self.lag_times[max(half, 1)], self.lag_times[-1]) if len(times) > 2 else np.nan
         return self
 
     def fit(self, t_min: float, t_max: float) -> float:

@@ -8,7 +8,7 @@ import numpy as np
 from numba import njit
 
 from ..state import State
-from ._common import as_states, axes
+from ._common import axes, each_state
 
 
 @njit(cache=True)
@@ -86,10 +86,30 @@ def pair_histogram(points, box, periodic, r_max, nbins):
     return counts
 
 
-def _shell_volumes(edges, dim):
-    if dim == 3:
-        return 4.0 / 3.0 * math.pi * np.diff(edges**3)
-    return math.pi * np.diff(edges**2)
+#: :math:`\int\prod_{k\in S}|n_k|\,d\Omega` over the unit sphere (3D) or circle (2D) for :math:`|S|` = 0, 1, 2, 3
+_SPHERE_MOMENTS = {3: (4.0 * math.pi, 2.0 * math.pi, 8.0 / 3.0, 1.0), 2: (2.0 * math.pi, 4.0, 2.0)}
+
+
+def _shell_volumes(edges, dim, closed_lengths=()):
+    r"""Ideal-gas weight of each shell: its volume, times the chance that a pair that far apart fits in the box.
+
+    Two centres uniform on an axis closed by walls, with accessible length :math:`L` there,
+    are :math:`|x|` apart with probability density :math:`\propto 1 - |x|/L` (periodic axes:
+    uniform), so the shell :math:`[r_a, r_b)` weighs
+
+    .. math:: W = \int_{\rm shell}\prod_{k\,\rm closed}\Big(1-\frac{|x_k|}{L_k}\Big)d^dx
+        = \sum_s (-1)^s e_s c_s \frac{r_b^{d+s}-r_a^{d+s}}{d+s}
+
+    (:math:`r_b \le \min L_k`) with :math:`e_s` the elementary symmetric polynomials of the
+    :math:`1/L_k` and :math:`c_s` the moments :data:`_SPHERE_MOMENTS`.
+    """
+    e = np.atleast_1d(np.poly(-1.0 / np.asarray(closed_lengths, float)))
+    return sum((-1) ** s * e[s] * _SPHERE_MOMENTS[dim][s] * np.diff(edges ** (dim + s)) / (dim + s) for s in range(len(e)))
+
+
+def _accessible_lengths(state: State) -> np.ndarray:
+    """Lengths the particle centres can reach on the axes closed by walls (box minus one mean diameter)."""
+    return state.box[~state.periodic] - 2.0 * float(state.radius.mean())
 
 
 class RDF:
@@ -100,8 +120,10 @@ class RDF:
 
     .. math:: g(r_k) = \frac{2 h_k}{N\,\frac{N-1}{V}\,V_k}
 
-    so uncorrelated points give :math:`g = 1` exactly on average. In a box with closed axes
-    (walls) the normalisation is the bulk one and :math:`g` is biased low at large :math:`r`.
+    so uncorrelated points give :math:`g = 1` exactly on average. On axes closed by walls the
+    density is that of the volume the centres can reach (box lengths minus a mean diameter) and
+    :math:`V_k` is weighted by the chance that a pair that far apart fits in the box
+    (:func:`_shell_volumes`), so :math:`g \to 1` at large :math:`r` in a closed box too.
 
     Args:
         bins: number of bins.
@@ -136,32 +158,39 @@ class RDF:
             raise ValueError("give r_max for a box without periodic axes")
         if r_max > half * (1 + 1e-12):
             raise ValueError(f"r_max = {r_max} exceeds half the shortest periodic box length ({half})")
+        closed = _accessible_lengths(state)
+        if closed.size and r_max > closed.min():
+            raise ValueError(f"r_max = {r_max} exceeds the length the particles can reach between walls ({closed.min():.6g})")
         return float(r_max)
 
     def compute(self, system, reset: bool = True) -> RDF:
-        """Accumulate :math:`g(r)` over one State, several States or a GSD file; returns ``self``.
+        """Accumulate :math:`g(r)` over one State, several States or a GSD file (read frame by frame); returns ``self``.
 
         With ``reset=False`` the frames are added to those of earlier calls.
         """
-        states = as_states(system)
-        r_max = self._limit(states[0])
-        if reset or self.frames == 0:
+        if reset:
             self.frames = 0
-            self._sum = np.zeros(self.bins)
-            self.bin_edges = np.linspace(0.0, r_max, self.bins + 1)
-        elif r_max != self.bin_edges[-1]:
-            raise ValueError("frames with a different r_max cannot be accumulated")
-        self.bin_centers = 0.5 * (self.bin_edges[1:] + self.bin_edges[:-1])
-        shells = _shell_volumes(self.bin_edges, states[0].dim)
-        for s in states:
-            box, _ = s.geometry()
-            periodic = np.zeros(3, np.bool_)
-            periodic[: s.dim] = s.periodic
-            counts = pair_histogram(s.points, box, periodic, r_max, self.bins)
-            self._sum += 2.0 * counts / (s.n * (s.n - 1) / s.volume * shells)
-            self.frames += 1
+        for s in each_state(system):
+            self._add(s)
         self.rdf = self._sum / self.frames
         return self
+
+    def _add(self, s: State):
+        r_max = self._limit(s)
+        if self.frames == 0:
+            self._sum = np.zeros(self.bins)
+            self.bin_edges = np.linspace(0.0, r_max, self.bins + 1)
+            self.bin_centers = 0.5 * (self.bin_edges[1:] + self.bin_edges[:-1])
+        elif r_max != self.bin_edges[-1]:
+            raise ValueError("frames with a different r_max cannot be accumulated")
+        box, _ = s.geometry()
+        periodic = np.zeros(3, np.bool_)
+        periodic[: s.dim] = s.periodic
+        counts = pair_histogram(s.points, box, periodic, r_max, self.bins)
+        closed = _accessible_lengths(s)
+        volume = float(np.prod(s.box[s.periodic]) * np.prod(closed))
+        self._sum += 2.0 * counts / (s.n * (s.n - 1) / volume * _shell_volumes(self.bin_edges, s.dim, closed))
+        self.frames += 1
 
     def contact_value(self, sigma: float, width: float | None = None, order: int = 2) -> float:
         r"""Contact value :math:`g(\sigma^+)` by extrapolating a polynomial fit to :math:`r = \sigma`.

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import math
 import os
+from fractions import Fraction
 
 import numpy as np
 
 from ..state import State
-from ._common import as_states, axes, contact_value, maxwell_speed_pdf
+from ._common import axes, each_state, contact_value, maxwell_speed_pdf
 
 
 class Temperature:
@@ -102,10 +103,9 @@ class VelocityDistribution:
         self.c_max = float(c_max)
 
     def compute(self, system) -> VelocityDistribution:
-        """Histogram the reduced speeds of one State, several States or a GSD file; returns ``self``."""
-        states = as_states(system)
+        """Histogram the reduced speeds of one State, several States or a GSD file (read frame by frame); returns ``self``."""
         speeds, temps = [], []
-        for s in states:
+        for s in each_state(system):
             t = s.temperature()
             if not t > 0:
                 raise ValueError(f"the state at t = {s.time} has zero temperature: no velocity distribution")
@@ -113,7 +113,7 @@ class VelocityDistribution:
             speeds.append(np.linalg.norm(s.committed_velocity - u, axis=1) * np.sqrt(s.mass / t))
             temps.append(t)
         c = np.concatenate(speeds)
-        d = states[0].dim
+        d = s.dim
         self.dim = d
         self.samples = c.size
         self.temperature = float(np.mean(temps))
@@ -245,6 +245,42 @@ class HaffLaw:
             eta=state.packing_fraction,
         )
 
+    @property
+    def label(self) -> str:
+        """Legend text of the law."""
+        return rf"Haff's law, $\tau_0$ = {self.tau0:.4g}"
+
     def __call__(self, t):
         """:math:`T(t)`."""
         return self.kT0 / (1.0 + (np.asarray(t, float) - self.t0) / self.tau0) ** 2
+
+
+class AlgebraicCooling:
+    r"""Late-time algebraic cooling :math:`T \propto (t - t_0)^{-p}` through the point :math:`(t_1, T_1)`.
+
+    .. math:: T(t) = T_1\Big(\frac{t - t_0}{t_1 - t_0}\Big)^{-p}
+
+    Viscoelastic spheres cool as :math:`T(t)=T_0[1+t/\tau_0]^{-5/3}\propto t^{-5/3}` at late
+    times (physics.md §5.4), the default ``exponent``; anchored at the last measured point it
+    shows whether a run has reached that regime.
+
+    Example:
+        >>> law = AlgebraicCooling(t1=10.0, kT1=0.5)
+        >>> round(float(law(20.0)), 6), round(0.5 * 2 ** (-5 / 3), 6)
+        (0.15749, 0.15749)
+    """
+
+    def __init__(self, t1: float, kT1: float, exponent: float = 5.0 / 3.0, t0: float = 0.0):
+        if not t1 > t0:
+            raise ValueError(f"the reference time t1 = {t1} must come after t0 = {t0}")
+        self.t1, self.kT1, self.exponent, self.t0 = float(t1), float(kT1), float(exponent), float(t0)
+
+    @property
+    def label(self) -> str:
+        """Legend text of the law."""
+        p = Fraction(self.exponent).limit_denominator(12)
+        return rf"$\propto t^{{-{p}}}$ (viscoelastic, late times)"
+
+    def __call__(self, t):
+        """:math:`T(t)`."""
+        return self.kT1 * ((np.asarray(t, float) - self.t0) / (self.t1 - self.t0)) ** -self.exponent
