@@ -124,3 +124,65 @@ def test_emdstar_rule_from_config(tmp_path):
 def test_emdstar_config_errors_name_the_problem(collision, message):
     with pytest.raises((ConfigError, ValueError), match=message):
         parse_config({"collision": collision}).collision.build()
+
+
+@pytest.mark.parametrize(
+    "data, key",
+    [
+        ({"system": {"n": "100"}}, "system.n"),
+        ({"system": {"packing_fraction": "0.3"}}, "system.packing_fraction"),
+        ({"run": {"progress": "yes"}}, "run.progress"),
+        ({"system": {"n": 10.0}}, "system.n"),
+    ],
+)
+def test_strings_and_floats_are_not_converted_silently(data, key):
+    with pytest.raises(ConfigError, match=key.replace(".", r"\.")):
+        parse_config(data)
+
+
+@pytest.mark.parametrize(
+    "data, message",
+    [
+        ({"system": {"radius": float("inf")}}, r"system\.radius: Input should be a finite number"),
+        ({"collision": {"rule": "inelastic", "e_n": 0.9, "tc": float("inf")}}, r"collision\.tc: Input should be a finite number"),
+        ({"system": {"seed": -1}}, r"system\.seed: .*greater than or equal to 0"),
+        ({"system": {"aspect": [1.0, 1.0, 2.0]}}, r"system: 'aspect' shapes the box of init = 'random' only"),
+        ({"system": {"n": 1}}, r"kT: a single particle .* set kT = 0"),
+        ({"collision": {"rule": "emdstar", "contact": "dashpot", "k": 1e4, "e_n": 0.0}}, r"e_n = 0 has no dashpot"),
+        ({"run": {"until_time": float("inf")}}, r"until_time = inf needs max_events or wall_time"),
+    ],
+)
+def test_every_bad_value_names_its_key(data, message):
+    with pytest.raises(ConfigError, match=message) as err:
+        parse_config(data)
+    assert "constrained" not in str(err.value) and "pydantic" not in str(err.value)
+
+
+def test_union_errors_name_the_key_once():
+    with pytest.raises(ConfigError) as err:
+        parse_config({"system": {"radius": "0.5"}})
+    lines = str(err.value).splitlines()[1:]
+    assert lines == ["  system.radius: Input should be a valid number (got '0.5')"]
+    with pytest.raises(ConfigError, match=r"system\.radius: radius distribution 'uniform' needs max$"):
+        parse_config({"system": {"radius": {"kind": "uniform", "min": 0.1}}})
+
+
+def test_a_sweep_file_points_to_edmd_sweep():
+    with pytest.raises(ConfigError, match="sweep file .*edmd sweep"):
+        parse_config({"base": {"system": {"n": 10}}, "grid": {"system.n": [10, 20]}})
+
+
+def test_until_time_inf_runs_a_number_of_events(tmp_path):
+    from edmd.runner import run_directory
+
+    cfg = parse_config({"system": {"dim": 2, "n": 64, "packing_fraction": 0.3}, "run": {"until_time": float("inf"), "max_events": 5000, "progress": False}, "output": {"plots": False}})
+    summary = run_directory(cfg, tmp_path / "run")
+    assert summary["events"] == 5000 and summary["time"] > 0
+    assert load_config(tmp_path / "run" / "config.toml").run.until_time == float("inf")
+
+
+def test_engine_debug_reaches_the_engine():
+    from edmd.runner import build_simulation
+
+    cfg = parse_config({"system": {"dim": 2, "n": 64, "packing_fraction": 0.3}, "engine": {"debug": True}})
+    assert build_simulation(cfg).engine.options.debug is True

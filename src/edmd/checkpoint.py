@@ -151,13 +151,14 @@ def read_checkpoint(path: str | os.PathLike) -> CheckpointData:
     return CheckpointData(state=state, meta=meta, arrays=arrays)
 
 
-def load_checkpoint(path: str | os.PathLike, observers=()) -> Simulation:
+def load_checkpoint(path: str | os.PathLike, observers=(), data: CheckpointData | None = None) -> Simulation:
     """A :class:`Simulation` continuing exactly from checkpoint ``path``.
 
     ``observers`` (new, unattached instances configured like the original ones: same classes,
     intervals and files, in the same order) are attached and restored: a Thermo gets its rows
     back (its CSV is rewritten from them), a Trajectory file is cut back to the frames it had
-    at the checkpoint, a Checkpoint continues its schedule.
+    at the checkpoint, a Checkpoint continues its schedule. ``data``: the file's contents if
+    already read (:func:`read_checkpoint`).
 
     Example:
         >>> import edmd, tempfile, os
@@ -169,7 +170,7 @@ def load_checkpoint(path: str | os.PathLike, observers=()) -> Simulation:
         >>> again.time, again.collisions == sim.collisions
         (2.0, True)
     """
-    data = read_checkpoint(path)
+    data = read_checkpoint(path) if data is None else data
     try:
         sim = Simulation(data.state, **data.meta["params"])
     except (TypeError, ValueError) as exc:

@@ -48,11 +48,14 @@ def _load_job(config: Path | None, start_from: Path | None, frame: int):
 def run(
     config: Path = typer.Argument(None, help="TOML configuration; without it the built-in showcase runs."),
     out: Path = typer.Option(Path("edmd-run"), "--out", "-o", help="Run directory for config, thermo, trajectory, checkpoint, plots."),
-    start_from: Path = typer.Option(None, "--from", help="Start from a frame of this GSD file ([system] is then ignored)."),
+    start_from: Path = typer.Option(None, "--from", help="Start from a frame of this GSD file (the \\[system] settings are then ignored)."),
     frame: int = typer.Option(-1, "--frame", help="Frame of --from (negative counts from the end)."),
     restart: Path = typer.Option(None, "--restart", help="Continue the run in this directory from its checkpoint."),
     until_time: float = typer.Option(None, "--until-time", help="With --restart: new end time (simulation time)."),
-    progress: bool = typer.Option(True, "--progress/--no-progress", help="Show a progress bar."),
+    force: bool = typer.Option(False, "--force", help="Replace a run already in --out (all its files are removed first)."),
+    max_memory: str = typer.Option(None, "--max-memory", help="Refuse to start above this estimated memory, e.g. 8G (default: the memory available)."),
+    debug: bool = typer.Option(False, "--debug", help="Check every collision for overlaps (slow; sets \\[engine] debug)."),
+    progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress (a bar on a terminal, a line every few percent otherwise)."),
 ):
     """Run a simulation and write its run directory (or continue one with --restart)."""
     from .checkpoint import CheckpointError
@@ -64,23 +67,26 @@ def run(
 
     try:
         if restart is not None:
-            if config is not None or start_from is not None:
-                raise ConfigError("--restart continues a run directory with its own configuration: give no CONFIG or --from")
+            if config is not None or start_from is not None or force or debug:
+                raise ConfigError("--restart continues a run directory with its own configuration: give no CONFIG, --from, --force or --debug")
             out = restart
             summary = restart_directory(restart, until_time=until_time, progress=None if progress else False)
         else:
             if until_time is not None:
                 raise ConfigError("--until-time goes with --restart; set [run] until_time in the configuration")
             cfg = _load_job(config, start_from, frame)
-            summary = run_directory(cfg, out, progress=progress and cfg.run.progress)
+            if debug:
+                cfg.engine.debug = True
+            summary = run_directory(cfg, out, progress=progress and cfg.run.progress, force=force, max_memory=max_memory)
     except (ConfigError, StateError, CheckpointError, ValueError, OSError, EngineError) as exc:
         _fail(str(exc))
     except KeyboardInterrupt:
         err_console.print(f"[bold yellow]interrupted:[/] continue with `edmd run --restart {out}`")
         raise typer.Exit(code=130) from None
     table = Table(title=f"edmd run -> {out}", show_header=False)
-    keys = ("time", "collisions", "events", "temperature", "pressure_mean", "collisions_per_second", "particle_steps_per_second", "neighbours", "checkpoint_time")
-    for key in keys:
+    keys = ("time", "collisions", "events", "temperature", "collisions_per_second", "particle_steps_per_second", "neighbours", "checkpoint_time")
+    pressures = [k for k in summary if k.endswith("pressure_mean")]
+    for key in keys[:4] + tuple(pressures) + keys[4:]:
         if key in summary:
             v = summary[key]
             table.add_row(key, f"{v:.6g}" if isinstance(v, float) else str(v))

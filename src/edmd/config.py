@@ -9,6 +9,7 @@ Example:
 from __future__ import annotations
 
 import difflib
+import math
 import tomllib
 import typing
 from pathlib import Path
@@ -24,7 +25,8 @@ class ConfigError(ValueError):
 
 
 class _Section(BaseModel):
-    model_config = ConfigDict(extra="forbid", validate_assignment=True)
+    # strict: no silent conversions ("100" is not a number, "yes" not a boolean); numbers finite
+    model_config = ConfigDict(extra="forbid", validate_assignment=True, strict=True, allow_inf_nan=False)
 
 
 class RadiusDistribution(_Section):
@@ -57,7 +59,7 @@ class SystemConfig(_Section):
     n: int = Field(4000, ge=1, description="number of particles")
     packing_fraction: float = Field(0.3, gt=0, lt=1)
     kT: float = Field(1.0, ge=0, description="initial temperature (Maxwell-Boltzmann)")
-    seed: int = 1
+    seed: int = Field(1, ge=0, description="random seed (a non-negative integer)")
     init: Literal["lattice", "random"] = "lattice"
     lattice: Literal["fcc", "sc", "hex", "square"] | None = None
     radius: Annotated[float, Field(gt=0)] | RadiusDistribution = 0.5
@@ -78,6 +80,10 @@ class SystemConfig(_Section):
             raise ValueError(f"lattice {self.lattice!r} does not exist in {self.dim}D")
         if self.aspect is not None and len(self.aspect) != self.dim:
             raise ValueError(f"aspect needs {self.dim} numbers")
+        if self.n == 1 and self.kT > 0 and self.from_file is None:
+            raise ValueError("kT: a single particle at zero total momentum is at rest and has no temperature; set kT = 0")
+        if self.aspect is not None and self.init != "random":
+            raise ValueError("'aspect' shapes the box of init = 'random' only (a lattice fixes its own box)")
         return self
 
 
@@ -165,6 +171,8 @@ class CollisionConfig(_Section):
         if self.contact is None:
             raise ValueError("rule 'emdstar' needs contact = 'hertz' (young, poisson, A) or 'dashpot' (k, gamma or e_n)")
         _check_soft_law(self.contact, self, unused=("beta", "e_t", "mu", "tc"))
+        if self.e_n == 0.0:
+            raise ValueError("e_n = 0 has no dashpot (its damping would be infinite): give 0 < e_n <= 1, or gamma")
         return self
 
     def soft_contact(self, mass: float):
@@ -225,11 +233,17 @@ class WallsConfig(_Section):
 class RunConfig(_Section):
     """``[run]``: how long, and how often to write output."""
 
-    until_time: float = Field(20.0, gt=0)
+    until_time: float = Field(20.0, gt=0, allow_inf_nan=True, description="inf: run until max_events or wall_time")
     output_interval: float = Field(1.0, gt=0, description="thermo row + trajectory frame every this much time")
     max_events: int | None = Field(None, ge=1)
     wall_time: float | None = Field(None, gt=0, description="stop after this many wall-clock seconds")
     progress: bool = True
+
+    @model_validator(mode="after")
+    def _ends(self):
+        if math.isinf(self.until_time) and self.max_events is None and self.wall_time is None:
+            raise ValueError("until_time = inf needs max_events or wall_time to end the run")
+        return self
 
 
 class EngineConfig(_Section):
@@ -239,6 +253,7 @@ class EngineConfig(_Section):
     skin: float = Field(0.5, gt=0)
     resync_every: float = Field(50.0, gt=0)
     events_per_bucket: float = Field(4.0, gt=0)
+    debug: bool = Field(False, description="check every collision for overlaps (slow; for testing)")
 
 
 class IntegratorConfig(_Section):
@@ -335,10 +350,39 @@ def _known_keys(model: type[BaseModel], loc: tuple) -> list[str]:
     return list(model.model_fields)
 
 
-def _format(exc: ValidationError) -> str:
+#: location parts that name a branch of a union or a validator, not a key
+_BRANCH_TAGS = {"float", "int", "str", "bool", "RadiusDistribution"}
+
+
+def _is_branch(part) -> bool:
+    return isinstance(part, str) and (part.startswith(("function-", "constrained-")) or "[" in part or part in _BRANCH_TAGS)
+
+
+def _field(err: dict) -> tuple:
+    return tuple(p for p in err["loc"] if not _is_branch(p))
+
+
+def _relevant(errors: list[dict]) -> list[dict]:
+    """Of a number-or-table union (``radius``), the errors of the branch the user meant:
+    the table's for a table, the number's otherwise."""
+    model_types = ("model_type", "dict_type", "model_attributes_type")
+    keep = []
+    for err in errors:
+        table_given = isinstance(err.get("input"), dict)
+        number_branch = any(p in ("float", "constrained-float") for p in err["loc"])
+        if number_branch and table_given:
+            continue
+        if err["type"] in model_types and not table_given and any(e is not err and _field(e) == _field(err) for e in errors):
+            continue
+        keep.append(err)
+    return keep or errors
+
+
+def format_errors(exc: ValidationError, prefix: tuple = ()) -> str:
+    """A readable message of a pydantic error: one line per problem, each naming its key."""
     lines = []
-    for err in exc.errors():
-        loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and p.startswith(("function-", "RadiusDistribution"))))
+    for err in _relevant(exc.errors()):
+        loc = prefix + _field(err)
         key = ".".join(str(p) for p in loc) or "(top level)"
         if err["type"] == "extra_forbidden":
             hint = difflib.get_close_matches(str(loc[-1]), _known_keys(Config, loc), n=1)
@@ -350,12 +394,20 @@ def _format(exc: ValidationError) -> str:
     return "invalid configuration:\n  " + "\n  ".join(dict.fromkeys(lines))
 
 
+#: top-level tables of a sweep file (:mod:`edmd.sweeps`), not of a run configuration
+SWEEP_TABLES = ("base", "grid", "points")
+
+
 def parse_config(data: dict[str, Any]) -> Config:
     """Validate a configuration dict; raises :class:`ConfigError` with readable messages."""
+    sweep = [k for k in SWEEP_TABLES if k in data]
+    if sweep:
+        tables = ", ".join(f"[{k}]" for k in sweep)
+        raise ConfigError(f"this is a sweep file (it has {tables}), not a run configuration: run it with `edmd sweep FILE`")
     try:
         return Config.model_validate(data)
     except ValidationError as exc:
-        raise ConfigError(_format(exc)) from None
+        raise ConfigError(format_errors(exc)) from None
 
 
 def load_config(path: str | Path) -> Config:

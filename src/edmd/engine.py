@@ -17,12 +17,13 @@ import math
 import numpy as np
 
 from ._core import layout as L
-from ._core.cells import grid_shape, new_grid
+from ._core.cells import new_grid
 from ._core.loop import run_events, setup_events
 from ._core.queue import calendar_shape, new_queue, queue_build
 from ._core.snapshot import stream_all
 from . import collide
 from .emdstar import EMDStar, emd_bundle
+from .memory import grid_shape
 from .state import State, StateError
 
 
@@ -140,7 +141,7 @@ class Engine:
         self.ip[L.IP_MODE] = L.NB_LIST if mode == "list" else L.NB_CELLS
         self.fp[L.FP_SKIN] = skin
         cell_min = sigma_max + (skin if mode == "list" else 0.0)
-        self.grid_cells = grid_shape(self.box, np.r_[self.periodic, [False] * (3 - self.dim)], cell_min)
+        self.grid_cells = grid_shape(self.box, np.r_[self.periodic, [False] * (3 - self.dim)], cell_min, self.n)
         if mode == "list":
             n_density = state.n / state.volume
             reach = sigma_max + skin

@@ -10,9 +10,10 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ._core.cells import grid_shape, new_grid
+from ._core.cells import new_grid
 from ._core.geometry import random_insert, relax_overlaps
 from ._core.layout import make_geo
+from .memory import grid_shape
 from .state import State, StateError
 
 LATTICES = {2: ("hex", "square"), 3: ("fcc", "sc")}
@@ -84,6 +85,16 @@ def _masses(r, dim, mass, density):
     return np.broadcast_to(np.asarray(mass, float), r.shape).copy()
 
 
+def _check_counts(n, dim):
+    """``n`` a positive integer and ``dim`` 2 or 3, or a :class:`StateError` naming the bad one."""
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)):
+        raise StateError(f"n must be a whole number of particles, got {n!r}")
+    if n < 1:
+        raise StateError(f"n must be positive, got {n}")
+    if dim not in (2, 3):
+        raise StateError(f"dim must be 2 or 3, got {dim}")
+
+
 def _periodic_flags(periodic, dim) -> np.ndarray:
     flags = np.ones(dim, bool) if periodic is None else np.asarray(periodic, bool)
     if flags.shape != (dim,):
@@ -148,10 +159,7 @@ def lattice(
         >>> s.n, round(s.packing_fraction, 12)
         (32, 0.3)
     """
-    if dim not in (2, 3):
-        raise StateError(f"dim must be 2 or 3, got {dim}")
-    if n < 1:
-        raise StateError(f"n must be positive, got {n}")
+    _check_counts(n, dim)
     kind = kind or LATTICES[dim][0]
     if kind not in LATTICES[dim]:
         raise StateError(f"lattice {kind!r} is not a {dim}D lattice; choose from {LATTICES[dim]}")
@@ -229,10 +237,7 @@ def random_packing(
         >>> s.overlapping_pair() is None
         True
     """
-    if dim not in (2, 3):
-        raise StateError(f"dim must be 2 or 3, got {dim}")
-    if n < 1:
-        raise StateError(f"n must be positive, got {n}")
+    _check_counts(n, dim)
     if method not in ("auto", "insert", "relax"):
         raise StateError(f"method must be 'auto', 'insert' or 'relax', got {method!r}")
     rng = np.random.default_rng(seed)
@@ -247,7 +252,7 @@ def random_packing(
     half = np.full(3, np.inf)
     half[:dim] = np.where(periodic, 0.5 * box, np.inf)
     geo = make_geo(box3, half)
-    nc = grid_shape(box3, np.r_[periodic, np.zeros(3 - dim, bool)], 2.0 * r.max())
+    nc = grid_shape(box3, np.r_[periodic, np.zeros(3 - dim, bool)], 2.0 * r.max(), n)
     grid = new_grid(n, box3, nc)
     pos3 = np.zeros((n, 3))
     placed, attempts, batch = 0, 0, 16
@@ -266,7 +271,7 @@ def random_packing(
             )
         pos3[placed:, :dim] = (rng.random((n - placed, dim)) - 0.5) * (box - 2.0 * r.max() * ~periodic)
         inflate = 1.0 + 2e-3
-        nc = grid_shape(box3, np.r_[periodic, np.zeros(3 - dim, bool)], 2.0 * r.max() * inflate)
+        nc = grid_shape(box3, np.r_[periodic, np.zeros(3 - dim, bool)], 2.0 * r.max() * inflate, n)
         sweeps = relax_overlaps(pos3, r, geo, new_grid(n, box3, nc), inflate, 0.3, 20000, dim)
         if sweeps > 20000:
             raise StateError(
@@ -292,6 +297,11 @@ def maxwell_boltzmann(state: State, kT: float, seed: int = 0, spin: bool = False
     """
     if not kT >= 0 or not math.isfinite(kT):
         raise StateError(f"kT must be a non-negative number, got {kT}")
+    if state.n == 1 and kT > 0:
+        raise StateError(
+            "maxwell_boltzmann: a single particle with zero total momentum is at rest, it cannot have a temperature "
+            "kT > 0; give it a velocity directly (State(velocity=...)) or use kT = 0"
+        )
     rng = np.random.default_rng(seed)
     out = state.copy()
     v = rng.normal(size=(state.n, state.dim)) * np.sqrt(kT / state.mass)[:, None]

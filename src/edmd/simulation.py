@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import math
+import sys
 import time as _time
 import warnings
 from collections.abc import Callable
@@ -85,6 +87,11 @@ class Observer:
     def next_time(self) -> float:
         return self.start + self._k * self.interval
 
+    @property
+    def last_time(self) -> float | None:
+        """The time this observer last fired on its schedule (``None`` before the first firing)."""
+        return None if self._k == 0 else self.start + (self._k - 1) * self.interval
+
     def checkpoint_data(self) -> dict:
         """Everything needed to continue this observer exactly: JSON values or numpy arrays."""
         return {"start": self.start, "interval": self.interval, "k": self._k}
@@ -163,7 +170,7 @@ class Simulation:
                 raise ValueError("give either collision or the e_n shortcut, not both")
             collision = collide.Inelastic(e_n)
         if isinstance(engine, dict):
-            engine = EngineOptions(**engine)
+            engine = engine_options(engine)
         if isinstance(collision, dict):
             collision = collide.from_dict(collision)
         if isinstance(walls, dict):
@@ -317,6 +324,24 @@ class Simulation:
             o.close()
 
 
+def engine_options(options: dict) -> EngineOptions:
+    """:class:`EngineOptions` from a dict; an unknown key is a ``ValueError`` that names it.
+
+    Example:
+        >>> engine_options({"neighbors": "list"})
+        Traceback (most recent call last):
+        ...
+        ValueError: engine option 'neighbors' does not exist (did you mean 'neighbours'?); the options are neighbours, skin, resync_every, events_per_bucket, auto_threshold, debug, debug_tolerance
+    """
+    known = [f.name for f in dataclasses.fields(EngineOptions)]
+    for key in options:
+        if key not in known:
+            hint = difflib.get_close_matches(str(key), known, n=1)
+            extra = f" (did you mean {hint[0]!r}?)" if hint else ""
+            raise ValueError(f"engine option {key!r} does not exist{extra}; the options are {', '.join(known)}")
+    return EngineOptions(**options)
+
+
 def _warn_viscoelastic_validity(state: State, rule, wall, gravity):
     """Warn when impacts may reach delta > 1, outside the viscoelastic model (physics.md §2.2.2)."""
     for material in collide.materials(rule, wall):
@@ -333,13 +358,26 @@ def _warn_viscoelastic_validity(state: State, rule, wall, gravity):
 
 
 class _Progress:
-    """A rich progress bar over simulation time (or events when no end time is set)."""
+    """Progress over simulation time (or events when no end time is set): a rich bar on a
+    terminal; elsewhere (batch logs) a plain line every :attr:`STEP` of the run or every
+    :attr:`EVERY` seconds, whichever comes first."""
 
-    def __init__(self, t0, target, budget):
+    STEP = 0.05
+    EVERY = 60.0
+
+    def __init__(self, t0, target, budget, stream=None):
+        self.t0, self.target, self.budget = t0, target, budget
+        self.stream = sys.stdout if stream is None else stream
+        self.total = (target - t0) if math.isfinite(target) else float(budget if math.isfinite(budget) else 1)
+        self.start = _time.perf_counter()
+        self.events0 = None
+        self.bar = None if not self.stream.isatty() else self._rich_bar()
+        self._printed = (-1.0, -math.inf)  # fraction and clock of the last plain line
+
+    def _rich_bar(self):
         from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
-        self.t0, self.target, self.budget = t0, target, budget
-        self.bar = Progress(
+        bar = Progress(
             TextColumn("[bold]edmd"),
             BarColumn(),
             TextColumn("{task.percentage:>5.1f}%"),
@@ -347,20 +385,26 @@ class _Progress:
             TimeElapsedColumn(),
             TimeRemainingColumn(),
         )
-        total = (target - t0) if math.isfinite(target) else float(budget if math.isfinite(budget) else 1)
-        self.task = self.bar.add_task("run", total=max(total, 1e-300), t=t0, rate="")
-        self.start = _time.perf_counter()
-        self.events0 = None
-        self.bar.start()
+        self.task = bar.add_task("run", total=max(self.total, 1e-300), t=self.t0, rate="")
+        bar.start()
+        return bar
 
-    def update(self, sim):
+    def update(self, sim, final: bool = False):
         if self.events0 is None:
             self.events0 = sim.events
-        dt = max(_time.perf_counter() - self.start, 1e-9)
-        rate = f"{(sim.events - self.events0) / dt:.3g} events/s"
+        elapsed = max(_time.perf_counter() - self.start, 1e-9)
+        rate = f"{(sim.events - self.events0) / elapsed:.3g} events/s"
         done = (sim.time - self.t0) if math.isfinite(self.target) else sim.events - self.events0
-        self.bar.update(self.task, completed=done, t=sim.time, rate=rate)
+        if self.bar is not None:
+            self.bar.update(self.task, completed=done, t=sim.time, rate=rate)
+            return
+        fraction = min(done / self.total, 1.0) if self.total > 0 else 1.0
+        last_fraction, last_clock = self._printed
+        if final or fraction >= last_fraction + self.STEP or elapsed >= last_clock + self.EVERY:
+            print(f"edmd: {100 * fraction:5.1f}%  t = {sim.time:.6g}  events = {sim.events}  {rate}  {elapsed:.0f} s", file=self.stream, flush=True)
+            self._printed = (fraction, elapsed)
 
     def close(self, sim):
-        self.update(sim)
-        self.bar.stop()
+        self.update(sim, final=True)
+        if self.bar is not None:
+            self.bar.stop()

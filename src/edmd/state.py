@@ -7,9 +7,10 @@ import math
 
 import numpy as np
 
-from ._core.cells import grid_shape, new_grid
+from ._core.cells import new_grid
 from ._core.geometry import worst_overlap
 from ._core.layout import make_geo
+from .memory import grid_shape
 
 #: relative overlap tolerated as round-off (contacts from a running simulation sit at |r| = sigma)
 OVERLAP_TOLERANCE = 1e-9
@@ -163,6 +164,15 @@ class State:
                 raise StateError(f"{name} must be positive: particle {bad[0]} has {name} {arr[bad[0]]!r}")
         if np.any(self.box <= 0.0):
             raise StateError(f"box lengths must be positive, got {self.box.tolist()}")
+        sigma_max = 2.0 * float(self.radius.max())
+        short = np.flatnonzero(self.periodic & (self.box <= 2.0 * sigma_max))
+        if short.size:
+            k = int(short[0])
+            raise StateError(
+                f"periodic box length {self.box[k]!r} (axis {'xyz'[k]}) must exceed twice the largest contact distance "
+                f"(2 x {sigma_max!r}): in a smaller box a particle touches its own periodic image or meets a neighbour "
+                "through two images at once; use a larger box, smaller particles, or walls on that axis"
+            )
         lo, hi = -0.5 * self.box, 0.5 * self.box
         inner = self.position - self.radius[:, None] * (~self.periodic)[None, :]
         outer = self.position + self.radius[:, None] * (~self.periodic)[None, :]
@@ -178,7 +188,7 @@ class State:
         """The most overlapping pair ``(i, j, distance)`` beyond ``rel_tol``, or ``None``."""
         box, half = self.geometry()
         sigma_max = 2.0 * float(self.radius.max())
-        nc = grid_shape(box, np.r_[self.periodic, [False] * (3 - self.dim)], sigma_max)
+        nc = grid_shape(box, np.r_[self.periodic, [False] * (3 - self.dim)], sigma_max, self.n)
         grid = new_grid(self.n, box, nc)
         i, j, d = worst_overlap(self.points, self.radius, make_geo(box, half), grid, rel_tol)
         return None if i < 0 else (int(i), int(j), float(d))

@@ -40,6 +40,7 @@ import functools
 import math
 import os
 import time
+import zipfile
 from importlib import resources
 from pathlib import Path
 
@@ -300,17 +301,23 @@ class RestitutionTable:
     @classmethod
     def load(cls, path: str | os.PathLike) -> RestitutionTable:
         """Read a table written by :meth:`save`; checks the format version and the grid."""
+        path = Path(path)
+        if not path.is_file():
+            raise TableError(f"no restitution table file {path}")
         try:
-            with np.load(Path(path), allow_pickle=False) as f:
+            with np.load(path, allow_pickle=False) as f:
                 data = {k: f[k] for k in f.files}
-        except (OSError, ValueError) as exc:
-            raise TableError(f"cannot read a restitution table from {path}: {exc}") from None
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:  # never pass on numpy's pickle advice
+            raise TableError(f"{path} is corrupt or not a restitution table (.npz written by `edmd tables build`): {type(exc).__name__}") from None
         missing = {"values", "box", "geometry", "central", "central_geometry", "model", "meta"} - set(data)
         if missing:
             raise TableError(f"{path} is not a restitution table (missing {sorted(missing)})")
         import ast
 
-        meta = dict(ast.literal_eval(str(data["meta"])))
+        try:
+            meta = dict(ast.literal_eval(str(data["meta"])))
+        except (ValueError, SyntaxError, TypeError):
+            raise TableError(f"{path}: the table's metadata is damaged") from None
         if meta.get("format_version") != FORMAT_VERSION:
             raise TableError(f"{path} has table format version {meta.get('format_version')}, this edmd reads version {FORMAT_VERSION}")
         box = Box(*(tuple(row) for row in data["box"]))

@@ -54,7 +54,7 @@ def run_point(config_text: str, directory: str) -> dict[str, Any]:
     write_json(directory / STATUS, {"status": "running", **info})
     (directory / SUMMARY).unlink(missing_ok=True)
     try:
-        run_directory(parse_config(tomllib.loads(config_text)), directory, progress=False)
+        run_directory(parse_config(tomllib.loads(config_text)), directory, progress=False, force=True)
     except Exception as exc:
         status = _failure(directory, exc, traceback.format_exc())
     else:
