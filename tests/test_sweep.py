@@ -226,6 +226,23 @@ until_time = 0.5
     assert r.exit_code == 1 and "ran 1, skipped 2" in r.output
 
 
+def test_corrupt_json_in_a_sweep_directory_is_an_error_naming_it(tmp_path):
+    from edmd.sweeps.files import read_json
+
+    assert read_json(tmp_path / "missing.json") is None  # a point that never started
+    status = point_dir(tmp_path, "abc") / "status.json"
+    status.parent.mkdir(parents=True)
+    status.write_text('{"status": "do')  # cut short
+    with pytest.raises(SweepError, match=f"{status} is corrupt"):
+        edmd.sweep_summary(tmp_path)
+    status.write_bytes(b"\xff\xfe")
+    with pytest.raises(SweepError, match="is corrupt"):
+        read_json(status)
+    r = runner.invoke(app, ["sweep", "--summary", str(tmp_path)])
+    assert r.exit_code == 2 and "Traceback" not in r.output
+    assert f"{status}iscorrupt" in "".join(r.output.split())  # the console wraps lines anywhere
+
+
 def test_cli_input_errors(tmp_path):
     def fails(*args):
         r = runner.invoke(app, ["sweep", *args])

@@ -7,7 +7,7 @@ import pytest
 
 import edmd
 from edmd import Simulation, Thermo, read_thermo
-from edmd.thermo import pressure
+from edmd.thermo import COLUMNS, pressure
 
 
 def test_ideal_gas_pressure_formula(dim):
@@ -46,3 +46,31 @@ def test_pressure_survives_resyncs(dim):
     s = edmd.lattice(300, 0.3, dim=dim)
     ideal = s.n / s.volume
     assert np.all(runs[1] > ideal)
+
+
+def _thermo_run(path, until=1.0):
+    sim = Simulation(edmd.maxwell_boltzmann(edmd.lattice(64, 0.2), 1.0, seed=2))
+    sim.add(Thermo(0.5, path=path))
+    sim.run(until_time=until)
+    sim.close()
+
+
+def test_thermo_appends_under_its_own_header(tmp_path):
+    p = tmp_path / "thermo.csv"
+    p.write_text(",".join(COLUMNS) + "\n")
+    _thermo_run(p)
+    assert read_thermo(p)["time"].tolist() == [0.0, 0.5, 1.0]
+
+
+def test_thermo_refuses_a_file_with_other_columns(tmp_path):
+    p = tmp_path / "thermo.csv"
+    old = [c for c in COLUMNS if c != "wall_collisions"] + ["old_counter"]
+    p.write_text(",".join(old) + "\n" + ",".join("1" for _ in old) + "\n")
+    before = p.read_bytes()
+    msg = r"thermo\.csv has the thermo columns .* \(only in the file: \['old_counter'\]; only in this run: \['wall_collisions'\]\)"
+    with pytest.raises(ValueError, match=msg):
+        _thermo_run(p)
+    assert p.read_bytes() == before  # nothing appended under the wrong header
+    p.write_text(",".join(reversed(COLUMNS)) + "\n")
+    with pytest.raises(ValueError, match="the same columns in another order"):
+        _thermo_run(p)

@@ -68,6 +68,8 @@ class Thermo(Observer):
     (:class:`edmd.emdstar.EMDStar`) add the cumulative counters ``emd_contacts`` (A events),
     ``emd_exceptions_a``, ``emd_exceptions_b`` and ``emd_fallbacks`` (physics.md §4.8); their
     energies and temperatures use committed velocities. The first row has no interval (NaN).
+    An existing CSV file is appended to; its header must name the same columns (``ValueError``
+    naming the file and the differing columns otherwise).
 
     Example:
         >>> import edmd
@@ -125,6 +127,8 @@ class Thermo(Observer):
     def _write(self, row):
         if self._file is None:
             new = not os.path.exists(self.path) or os.path.getsize(self.path) == 0
+            if not new:
+                _check_header(self.path, list(row))
             self._file = open(self.path, "a", newline="")
             self._writer = csv.DictWriter(self._file, fieldnames=list(row))
             if new:
@@ -173,6 +177,17 @@ class Thermo(Observer):
         if self._file is not None:
             self._file.close()
             self._file = None
+
+
+def _check_header(path, columns: list[str]):
+    """Raise ``ValueError`` naming ``path`` and the differing columns if its header is not ``columns``."""
+    with open(path, newline="") as f:
+        have = next(csv.reader(f), [])
+    if have == columns:
+        return
+    old, now = [c for c in have if c not in columns], [c for c in columns if c not in have]
+    diff = f"only in the file: {old}; only in this run: {now}" if old or now else "the same columns in another order"
+    raise ValueError(f"{path} has the thermo columns {have}; this run writes {columns} ({diff}): remove the file or write to another one")
 
 
 def _csv_row(row: dict) -> dict:

@@ -21,6 +21,8 @@ import threading
 from pathlib import Path
 from typing import Any
 
+from .spec import SweepError
+
 MANIFEST = "sweep.json"
 POINTS = "points"
 CONFIG = "config.toml"
@@ -62,8 +64,25 @@ def write_json(path: Path, data: Any):
 
 
 def read_json(path: Path) -> Any:
-    """The JSON in ``path``, or ``None`` if it is missing or unreadable."""
+    """The JSON in ``path``, or ``None`` if there is no such file.
+
+    Raises:
+        SweepError: the file exists but cannot be read or is not valid JSON (the message names it).
+
+    Example:
+        >>> import tempfile
+        >>> d = Path(tempfile.mkdtemp())
+        >>> write_json(d / "a.json", {"status": "done"})
+        >>> read_json(d / "a.json"), read_json(d / "missing.json")
+        ({'status': 'done'}, None)
+    """
     try:
-        return json.loads(path.read_text())
-    except (OSError, ValueError):
+        data = path.read_bytes()
+    except FileNotFoundError:
         return None
+    except OSError as exc:
+        raise SweepError(f"cannot read {path}: {exc.strerror or exc}") from None
+    try:
+        return json.loads(data)
+    except ValueError as exc:  # UnicodeDecodeError included
+        raise SweepError(f"{path} is corrupt (not valid JSON: {exc})") from None
