@@ -153,3 +153,24 @@ def test_mp4_without_ffmpeg_is_a_clear_error(run2d, monkeypatch):
 def test_mp4_with_ffmpeg(run2d):
     path = make_movie(run2d, run2d / "m.mp4")
     assert path.stat().st_size > 0
+
+
+def test_clustering_example_writes_its_figure(tmp_path, monkeypatch):
+    """examples/clustering_2d.py (shortened): a run directory `edmd movie` reads, and the showcase PNG."""
+    import importlib.util
+    from pathlib import Path
+
+    from matplotlib.image import imread
+
+    path = Path(__file__).resolve().parents[1] / "examples" / "clustering_2d.py"
+    spec = importlib.util.spec_from_file_location("clustering_2d", path)
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    monkeypatch.setattr(example, "N", 300)
+    monkeypatch.setattr(example, "UNTIL", 20.0)
+    monkeypatch.setattr(example, "INTERVAL", 10.0)
+    monkeypatch.setattr(example, "FIGURE", tmp_path / "showcase.png")
+    example.main([str(tmp_path / "run")])
+    assert imread(tmp_path / "showcase.png").shape[0] > 500
+    with Image.open(make_movie(tmp_path / "run", color_by="density")) as gif:
+        assert gif.n_frames == 3
