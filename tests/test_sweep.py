@@ -13,7 +13,7 @@ import edmd
 from edmd import SweepError, SweepSpec, read_state
 from edmd.cli import app
 from edmd.sweeps import TIMING, replica_seed
-from edmd.sweeps.files import point_dir
+from edmd.sweeps.files import point_dir, read_json
 
 runner = CliRunner()
 EXAMPLES = Path(__file__).parents[1] / "examples"
@@ -227,8 +227,6 @@ until_time = 0.5
 
 
 def test_corrupt_json_in_a_sweep_directory_is_an_error_naming_it(tmp_path):
-    from edmd.sweeps.files import read_json
-
     assert read_json(tmp_path / "missing.json") is None  # a point that never started
     status = point_dir(tmp_path, "abc") / "status.json"
     status.parent.mkdir(parents=True)
