@@ -45,7 +45,7 @@ def test_run_writes_the_run_directory(tmp_path, dim):
     assert final.time == 2.0 and final.dim == dim
     summary = json.loads((out / "summary.json").read_text())
     assert summary["collisions"] == int(table["collisions"][-1])
-    assert (out / "config.toml").read_text().startswith("[system]")
+    assert (out / "config.toml").read_text().split("\n")[1] == "[system]"  # after the run id line
 
 
 def test_config_error_exits_cleanly(tmp_path):
@@ -100,3 +100,42 @@ def test_default_job_is_a_cooling_granular_gas():
     cfg = default_job()
     assert cfg.collision.rule == "inelastic" and cfg.collision.e_n < 1
     assert cfg.output.checkpoint and cfg.output.plots and cfg.run.progress
+
+
+def _edmd(*args, cwd=None):
+    """``edmd ARGS`` in a subprocess with stdout and stderr piped (not a terminal), as in a batch job."""
+    import subprocess
+    import sys
+
+    cmd = [sys.executable, "-c", "from edmd.cli import app; app()", *map(str, args)]
+    return subprocess.run(cmd, capture_output=True, text=True, cwd=cwd, timeout=600)
+
+
+def test_cli_data_safety(tmp_path):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(SMALL.format(dim=2).replace("progress = false", "progress = true"))
+    out = tmp_path / "run"
+    first = _edmd("run", cfg, "--out", out, "--debug")
+    assert first.returncode == 0, first.stderr
+    progress = [line for line in first.stdout.splitlines() if line.startswith("edmd: ")]
+    assert len(progress) >= 3 and progress[-1].startswith("edmd: 100.0%")  # plain lines in a batch log
+    again = _edmd("run", cfg, "--out", out)
+    assert again.returncode == 2 and "already holds a run" in again.stderr and "--force" in again.stderr
+    assert _edmd("run", cfg, "--out", out, "--force").returncode == 0
+    bad = _edmd("run", "--restart", out, "--until-time", "-5")
+    assert bad.returncode == 2 and "--until-time -5.0 is not after the checkpoint time 2.0" in bad.stderr
+    assert "pydantic" not in bad.stderr and "Traceback" not in bad.stderr
+    big = _edmd("run", cfg, "--out", tmp_path / "big", "--max-memory", "1k")
+    assert big.returncode == 2 and "more than the limit" in big.stderr
+
+
+def test_cli_sweep_file_given_to_run_suggests_sweep(tmp_path):
+    sweep = tmp_path / "s.toml"
+    sweep.write_text('[base.system]\nn = 10\n[grid]\n"system.packing_fraction" = [0.1, 0.2]\n')
+    r = runner.invoke(app, ["run", str(sweep), "--out", str(tmp_path / "x")])
+    assert r.exit_code == 2 and "edmd sweep" in r.output and "unknown key" not in r.output
+
+
+def test_run_help_shows_section_names():
+    r = runner.invoke(app, ["run", "--help"], env={"COLUMNS": "250"})
+    assert "[system] settings are then ignored" in r.output and "( is then ignored" not in r.output

@@ -20,7 +20,7 @@ err_console = Console(stderr=True)
 
 
 def _fail(msg: str):
-    err_console.print(f"[bold red]error:[/] {escape(msg)}")
+    err_console.print(f"[bold red]error:[/] {escape(msg)}", soft_wrap=True)  # unbroken lines: paths stay greppable
     raise typer.Exit(code=2)
 
 

@@ -1,0 +1,166 @@
+"""Run directories (edmd.runner): never lose or mix data, always leave the final state behind."""
+
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+import edmd
+from edmd.checkpoint import read_checkpoint
+from edmd.config import ConfigError, parse_config
+from edmd.engine import CollapseError
+from edmd.memory import MemoryLimitError
+from edmd.runner import RunDirectoryError, TrajectorySizeWarning, restart_directory, run_directory
+from edmd.trajectory import frame_count, read_state
+
+
+def small(dim=2, n=64, until=2.0, interval=0.5, **sections):
+    data = {
+        "system": {"dim": dim, "n": n, "packing_fraction": 0.3},
+        "run": {"until_time": until, "output_interval": interval, "progress": False},
+        "output": {"plots": False},
+    }
+    for name, values in sections.items():
+        data.setdefault(name, {}).update(values)
+    return parse_config(data)
+
+
+def snapshot_files(out):
+    return {p.name: p.read_bytes() for p in sorted(out.iterdir()) if p.is_file()}
+
+
+def test_an_existing_run_is_refused_without_force(tmp_path, dim):
+    out = tmp_path / "run"
+    run_directory(small(dim), out)
+    before = snapshot_files(out)
+    with pytest.raises(RunDirectoryError, match="already holds a run .*--restart .*--force"):
+        run_directory(small(dim, n=100), out)
+    assert snapshot_files(out) == before
+
+
+def test_force_removes_every_file_of_the_old_run(tmp_path):
+    out = tmp_path / "run"
+    run_directory(small(), out)
+    for stale in ("temperature.png", "movie.gif", "summary.json"):
+        (out / stale).write_bytes(b"old")
+    (out / "notes.txt").write_text("mine")  # not a run file: kept
+    run_directory(small(until=1.0, interval=0.5), out, force=True)
+    names = {p.name for p in out.iterdir()}
+    assert "temperature.png" not in names and "movie.gif" not in names
+    assert (out / "notes.txt").read_text() == "mine"
+    assert json.loads((out / "summary.json").read_text())["time"] == 1.0
+
+
+@pytest.mark.parametrize("stop", ["off_grid", "max_events"])
+def test_the_end_of_a_run_writes_a_final_frame_and_checkpoint(tmp_path, stop):
+    cfg = small(until=0.5, interval=10.0) if stop == "off_grid" else small(until=50.0, interval=10.0, run={"max_events": 3000})
+    out = tmp_path / "run"
+    summary = run_directory(cfg, out)
+    end = summary["time"]
+    assert 0 < end <= 0.5 if stop == "off_grid" else 0 < end < 10.0
+    assert frame_count(out / "trajectory.gsd") == 2
+    assert read_state(out / "trajectory.gsd").time == end
+    assert read_checkpoint(out / "checkpoint.gsd").time == end == summary["checkpoint_time"]
+
+
+def test_a_foreign_checkpoint_is_refused_and_nothing_changes(tmp_path):
+    a, b = tmp_path / "a", tmp_path / "b"
+    run_directory(small(until=2.0), a)
+    run_directory(small(n=100, until=1.0), b)
+    shutil.copy(b / "checkpoint.gsd", a / "checkpoint.gsd")
+    before = snapshot_files(a)
+    with pytest.raises(RunDirectoryError, match="belongs to run .* another run"):
+        restart_directory(a, until_time=3.0)
+    assert snapshot_files(a) == before
+
+
+def test_a_foreign_thermo_file_is_refused(tmp_path):
+    a, b = tmp_path / "a", tmp_path / "b"
+    run_directory(small(until=1.0), a)
+    run_directory(small(until=1.0, system={"seed": 7}), b)
+    shutil.copy(b / "thermo.csv", a / "thermo.csv")
+    with pytest.raises(RunDirectoryError, match="thermo.csv does not continue into .*different runs"):
+        restart_directory(a, until_time=2.0)
+    assert (a / "thermo.csv").read_bytes() == (b / "thermo.csv").read_bytes()
+
+
+def test_restart_refuses_edits_to_the_physics(tmp_path):
+    out = tmp_path / "run"
+    run_directory(small(until=1.0), out)
+    path = out / "config.toml"
+    path.write_text(path.read_text().replace("n = 64", "n = 100").replace("packing_fraction = 0.3", "packing_fraction = 0.2"))
+    before = snapshot_files(out)
+    with pytest.raises(ConfigError, match=r"edited after the run started \(system.n: 64 -> 100; system.packing_fraction: 0.3 -> 0.2\)"):
+        restart_directory(out)
+    assert snapshot_files(out) == before
+
+
+def test_restart_takes_and_records_a_new_end_time_from_the_config(tmp_path):
+    out = tmp_path / "run"
+    run_directory(small(until=1.0), out)
+    path = out / "config.toml"
+    path.write_text(path.read_text().replace("until_time = 1.0", "until_time = 2.0"))
+    summary = restart_directory(out)
+    assert summary["time"] == 2.0
+    assert summary["restart_changes"] == {"run.until_time": [1.0, 2.0]}
+    text = path.read_text()
+    assert "# continued at t = 1.0: run.until_time 1.0 -> 2.0" in text and "until_time = 2.0" in text
+    assert read_state(out / "trajectory.gsd").time == 2.0
+
+
+def test_restart_until_a_time_before_the_checkpoint_is_an_error(tmp_path):
+    out = tmp_path / "run"
+    run_directory(small(until=1.0), out)
+    with pytest.raises(ConfigError, match="not after the checkpoint time 1.0"):
+        restart_directory(out, until_time=0.5)
+    with pytest.raises(ConfigError, match=r"run\.until_time: Input should be greater than 0 \(got -5.0\)") as err:
+        edmd.runner.set_key(small(), "run.until_time", -5.0)
+    assert "errors.pydantic.dev" not in str(err.value)
+
+
+def test_a_collapse_saves_the_state_and_the_summary(tmp_path):
+    # a ball on an inelastic floor, no TC: the bounces accumulate at a finite time (Zeno)
+    cfg = parse_config(
+        {
+            "system": {"dim": 3, "n": 1, "packing_fraction": 1e-6, "radius": 0.001, "density": 7800.0, "kT": 0.0, "gravity": [0.0, 0.0, -9.81]},
+            "walls": {"axes": ["x", "y", "z"], "e_n": 0.8},
+            "run": {"until_time": 3.0, "output_interval": 0.5, "progress": False},
+            "output": {"plots": False},
+        }
+    )
+    out = tmp_path / "ball"
+    with pytest.raises(CollapseError, match="error_state.gsd"):
+        run_directory(cfg, out)
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "failed" and "CollapseError" in summary["error"]
+    state = read_state(out / "error_state.gsd")
+    # a drop from rest from height h onto a floor with restitution e ends at t_fall (1 + 2e/(1-e)); the
+    # engine stops once bounces no longer advance the clock (remaining flight ~1e-8 of the total)
+    h = 0.5 * state.box[2] - 0.001
+    t_fall = np.sqrt(2 * h / 9.81)
+    assert state.time == summary["error_time"] == pytest.approx(t_fall * (1 + 2 * 0.8 / 0.2), rel=1e-7)
+    assert state.position[0, 2] == pytest.approx(-h, abs=1e-9)
+
+
+def test_closed_boxes_report_wall_pressures(tmp_path):
+    cfg = small(until=2.0, walls={"axes": ["y"]})
+    summary = run_directory(cfg, tmp_path / "run")
+    assert "pressure_mean" not in summary and summary["wall_pressure_y_mean"] > 0
+    periodic = run_directory(small(until=2.0), tmp_path / "periodic")
+    assert periodic["pressure_mean"] > 0 and not any(k.startswith("wall_pressure") for k in periodic)
+
+
+def test_memory_guard_refuses_before_allocating(tmp_path):
+    cfg = small(n=10**9)
+    with pytest.raises(MemoryLimitError, match=r"N = 1e\+09 particles needs about .* GB"):
+        run_directory(cfg, tmp_path / "big")
+    with pytest.raises(MemoryLimitError, match="more than the limit of 0.001 GB"):
+        run_directory(small(n=4000), tmp_path / "limited", max_memory="1M")
+    assert not (tmp_path / "big").exists()
+
+
+def test_a_large_trajectory_is_announced(tmp_path, monkeypatch):
+    monkeypatch.setattr(edmd.runner, "TRAJECTORY_WARN_BYTES", 64 * 100 * 4)
+    with pytest.warns(TrajectorySizeWarning, match=r"about .* GB \(6 frames of 64 particles\)"):
+        run_directory(small(until=2.0), tmp_path / "run")
