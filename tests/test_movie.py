@@ -96,6 +96,8 @@ def test_density_is_the_local_packing_fraction(run2d, run3d):
     r = 1.5
     expected = _neighbour_count(walls, r) * np.mean(walls.radius**3) / r**3
     assert np.allclose(local_packing_fraction(walls, radius=r), expected, rtol=1e-14)
+    some = np.array([5, 17, 200])
+    assert np.allclose(local_packing_fraction(walls, radius=r, particles=some), expected[some], rtol=1e-14)
     coll = plot_frame(walls, "density").collections[0]
     assert coll.norm.vmax == pytest.approx(np.pi / (3 * np.sqrt(2)))  # fcc close packing
 

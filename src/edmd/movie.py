@@ -41,14 +41,15 @@ class MovieError(ValueError):
     """A movie cannot be made: bad colouring, missing trajectory, unknown format, no ffmpeg."""
 
 
-def local_packing_fraction(state: State, radius: float | None = None) -> np.ndarray:
-    r"""Local packing fraction at each particle from its neighbour count (itself included).
+def local_packing_fraction(state: State, radius: float | None = None, particles=None) -> np.ndarray:
+    r"""Local packing fraction at each particle (or at ``particles``, indices) from its neighbour count (itself included).
 
     :math:`\eta_i = n_i\,\langle r^d\rangle / R^d`: the :math:`n_i` particles whose centres lie
     within :math:`R` of particle :math:`i` (minimum image on periodic axes), each given the mean
     particle volume, over the volume of the ball. :math:`R` defaults to :data:`DENSITY_RADIUS`
     mean diameters and is capped at half the shortest periodic box length; balls reaching
-    through a wall are not corrected (particles next to walls read lower).
+    through a wall are not corrected (particles next to walls read lower). Every particle is
+    counted, whichever ``particles`` the fraction is evaluated at.
 
     Example:
         >>> import edmd
@@ -68,12 +69,14 @@ def local_packing_fraction(state: State, radius: float | None = None) -> np.ndar
     points = np.where(periodic, np.mod(points, box), points)
     points = np.where(periodic & (points >= box), 0.0, points)  # mod may round up to L
     tree = cKDTree(points, boxsize=np.where(periodic, box, box + 2.0 * r))  # a closed axis: no image within r
-    counts = tree.query_ball_point(points, r, return_length=True)
+    counts = tree.query_ball_point(points if particles is None else points[particles], r, return_length=True)
     return counts * float(np.mean(state.radius**state.dim)) / r**state.dim
 
 
-def colour_values(state: State, color_by: str) -> np.ndarray:
-    """The colour value of every particle of ``state``: ``"speed"`` or ``"density"`` (see the module docstring).
+def colour_values(state: State, color_by: str, particles=None) -> np.ndarray:
+    """The colour value of every particle of ``state`` (or of ``particles``, indices): ``"speed"`` or ``"density"``.
+
+    See the module docstring; the rms speed is that of all particles.
 
     Example:
         >>> import edmd
@@ -83,9 +86,10 @@ def colour_values(state: State, color_by: str) -> np.ndarray:
     """
     check_colouring(color_by)
     if color_by == "density":
-        return local_packing_fraction(state)
+        return local_packing_fraction(state, particles=particles)
     speed = np.linalg.norm(state.committed_velocity, axis=1)
     rms = float(np.sqrt(np.mean(speed**2)))
+    speed = speed if particles is None else speed[particles]
     return speed / rms if rms > 0 else speed
 
 
@@ -117,7 +121,7 @@ def _draw(ax, state: State, color_by: str, particles: np.ndarray, slab: float | 
         shown = particles[keep[particles]]
         where = f", slab |z - {centre:.4g}| <= {half:.3g}"
     d = 2.0 * state.radius[shown]
-    values = colour_values(state, color_by)[shown]
+    values = colour_values(state, color_by, shown)
     coll = EllipseCollection(d, d, np.zeros_like(d), units="xy", offsets=state.position[shown, :2], offset_transform=ax.transData,
                              array=values, cmap=COLOURINGS[color_by][0], norm=_norm(color_by, state.dim))  # fmt: skip
     ax.add_collection(coll)
