@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+import edmd
 from edmd import StateError, lattice, maxwell_boltzmann, radii, random_packing
 
 
@@ -94,3 +95,17 @@ def test_radius_distributions_statistics():
     assert r.mean() == pytest.approx(0.5, rel=0.01) and r.std() == pytest.approx(0.05, rel=0.03)
     r = radii(100000, {"kind": "normal", "mean": 0.5, "std": 0.05}, rng)
     assert r.mean() == pytest.approx(0.5, rel=0.01) and r.min() >= 0.35
+
+
+@pytest.mark.parametrize("n", [1.5, "100", True])
+def test_particle_number_must_be_a_whole_number(n):
+    for make in (edmd.lattice, edmd.random_packing):
+        with pytest.raises(edmd.StateError, match="n must be a whole number of particles"):
+            make(n, 0.1)
+
+
+def test_maxwell_boltzmann_refuses_a_temperature_for_one_particle(dim):
+    one = edmd.lattice(1, 0.01, dim=dim)
+    with pytest.raises(edmd.StateError, match="single particle .* cannot have a temperature"):
+        edmd.maxwell_boltzmann(one, 1.0)
+    assert np.all(edmd.maxwell_boltzmann(one, 0.0).velocity == 0.0)

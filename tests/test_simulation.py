@@ -81,5 +81,7 @@ def test_bad_parameters(dim):
         _sim(dim, e_n=1.5)
     with pytest.raises(ValueError, match="neighbours must be"):
         _sim(dim, engine={"neighbours": "octree"})
+    with pytest.raises(ValueError, match="engine option 'neighbors' does not exist \\(did you mean 'neighbours'\\?\\)"):
+        _sim(dim, engine={"neighbors": "list"})
     with pytest.raises(ValueError, match="observer interval"):
         Callback(lambda s, t: None, interval=0.0)

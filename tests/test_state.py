@@ -92,3 +92,16 @@ def test_unwrapped_positions(dim):
     s = two(dim, image=np.array([[1] + [0] * (dim - 1), [0] * dim]))
     assert s.unwrapped_position[0, 0] == 10.0
     assert isinstance(edmd.State, type)
+
+
+def test_a_particle_larger_than_the_periodic_box_is_refused(dim):
+    box = [4.0] * dim
+    one = dict(position=np.zeros((1, dim)), velocity=np.zeros((1, dim)), mass=[1.0], box=box)
+    with pytest.raises(StateError, match=r"particle 0 \(diameter 6.0\) does not fit the periodic box length 4.0 .* own periodic image"):
+        State(radius=[3.0], **one)
+    with pytest.raises(StateError, match="own periodic image"):
+        State(radius=[2.0], **one)  # touching its own image
+    assert State(radius=[1.9], **one).n == 1
+    walled = dict(one, periodic=[False] * dim)
+    with pytest.raises(StateError, match="lies outside the box"):
+        State(radius=[3.0], **walled)

@@ -170,8 +170,13 @@ def test_bad_files_and_boxes(tmp_path):
     np.savez(bad, values=np.zeros(3))
     with pytest.raises(TableError, match="not a restitution table"):
         RestitutionTable.load(bad)
-    with pytest.raises(TableError, match="cannot read"):
+    with pytest.raises(TableError, match="no restitution table file"):
         RestitutionTable.load(tmp_path / "missing.npz")
+    for name, content in (("garbage.npz", b"not a zip archive at all"), ("truncated.npz", b"PK\x03\x04" + b"\x00" * 40)):
+        (tmp_path / name).write_bytes(content)
+        with pytest.raises(TableError, match="corrupt or not a restitution table") as err:
+            RestitutionTable.load(tmp_path / name)
+        assert "unsafely" not in str(err.value) and "pickle" not in str(err.value)
     tab = build_table("dashpot", SMALL_BOX, shape=(6, 6, 6), workers=1)
     tab.meta["format_version"] = 99
     old = tmp_path / "old.npz"

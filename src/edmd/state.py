@@ -164,14 +164,13 @@ class State:
                 raise StateError(f"{name} must be positive: particle {bad[0]} has {name} {arr[bad[0]]!r}")
         if np.any(self.box <= 0.0):
             raise StateError(f"box lengths must be positive, got {self.box.tolist()}")
-        sigma_max = 2.0 * float(self.radius.max())
-        short = np.flatnonzero(self.periodic & (self.box <= 2.0 * sigma_max))
+        big = int(np.argmax(self.radius))
+        short = np.flatnonzero(self.periodic & (self.box <= 2.0 * self.radius[big]))
         if short.size:
             k = int(short[0])
             raise StateError(
-                f"periodic box length {self.box[k]!r} (axis {'xyz'[k]}) must exceed twice the largest contact distance "
-                f"(2 x {sigma_max!r}): in a smaller box a particle touches its own periodic image or meets a neighbour "
-                "through two images at once; use a larger box, smaller particles, or walls on that axis"
+                f"particle {big} (diameter {2.0 * self.radius[big]!r}) does not fit the periodic box length "
+                f"{float(self.box[k])!r} (axis {'xyz'[k]}): it would overlap its own periodic image"
             )
         lo, hi = -0.5 * self.box, 0.5 * self.box
         inner = self.position - self.radius[:, None] * (~self.periodic)[None, :]

@@ -1,0 +1,47 @@
+"""Memory: the estimate and guard before allocation, and a cell grid bounded by the particle number."""
+
+import numpy as np
+import pytest
+
+import edmd
+from edmd.memory import MAX_CELLS_PER_PARTICLE, MemoryLimitError, check_memory, estimate_bytes, grid_shape, parse_bytes
+
+
+def test_guard_names_the_cause_and_the_remedy():
+    with pytest.raises(MemoryLimitError, match=r"N = 1e\+09 particles needs about 1.16e\+03 GB .*use fewer particles, or raise the limit"):
+        check_memory(10**9)  # no machine here has 1.2 TB available
+    check_memory(10**6, max_memory="2GB")
+    with pytest.raises(MemoryLimitError, match="not a memory size"):
+        check_memory(10, max_memory="lots")
+    assert estimate_bytes(10**7) == 10**7 * estimate_bytes(1)
+
+
+@pytest.mark.parametrize("text, size", [("8G", 8 * 10**9), ("500 MB", 5 * 10**8), ("2GiB", 2 * 2**30), (4096, 4096), ("1.5k", 1500)])
+def test_memory_sizes(text, size):
+    assert parse_bytes(text) == size
+
+
+def test_grid_is_bounded_by_the_particle_number(dim):
+    n = 200
+    state = edmd.random_packing(n, 1e-5, dim=dim, seed=1)  # one-diameter cells: 1e7 (3D) cells
+    nc = grid_shape(np.r_[state.box, [1.0] * (3 - dim)], [True] * dim + [False] * (3 - dim), 1.0, n)
+    assert np.prod(nc) <= MAX_CELLS_PER_PARTICLE * n and np.all(nc[:dim] >= 4)
+    sim = edmd.Simulation(edmd.maxwell_boltzmann(state, 1.0, seed=2), engine={"neighbours": "cells"})
+    assert np.prod(sim.engine.grid_cells) <= MAX_CELLS_PER_PARTICLE * n
+
+
+def test_coarse_cells_give_the_same_collisions_as_lists(dim):
+    # eta = 1e-3: one-diameter cells would be 500 per particle; the bounded grid is coarser and must
+    # change nothing but the bookkeeping: the same collisions as neighbour lists, to round-off (1e-16
+    # relative, amplified by ~lambda/sigma ~ 100 per collision of the chaotic dilute gas: < 1e-6 sigma here)
+    state = edmd.maxwell_boltzmann(edmd.random_packing(400, 1e-3, dim=dim, seed=3), 1.0, seed=4)
+    runs = {}
+    for mode in ("cells", "list"):
+        sim = edmd.Simulation(state, e_n=0.9, engine={"neighbours": mode})
+        sim.run(until_time=60.0)
+        runs[mode] = sim
+    assert np.prod(runs["cells"].engine.grid_cells) <= MAX_CELLS_PER_PARTICLE * 400
+    assert runs["cells"].collisions == runs["list"].collisions > 50
+    a, b = runs["cells"].state, runs["list"].state
+    assert np.allclose(a.unwrapped_position, b.unwrapped_position, rtol=0, atol=1e-6)
+    assert np.allclose(a.velocity, b.velocity, rtol=0, atol=1e-6)
