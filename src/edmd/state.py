@@ -169,7 +169,7 @@ class State:
         if short.size:
             k = int(short[0])
             raise StateError(
-                f"particle {big} (diameter {2.0 * self.radius[big]!r}) does not fit the periodic box length "
+                f"particle {big} (diameter {2.0 * float(self.radius[big])!r}) does not fit the periodic box length "
                 f"{float(self.box[k])!r} (axis {'xyz'[k]}): it would overlap its own periodic image"
             )
         lo, hi = -0.5 * self.box, 0.5 * self.box
