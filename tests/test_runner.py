@@ -12,7 +12,7 @@ from edmd.config import ConfigError, parse_config
 from edmd.engine import CollapseError
 from edmd.memory import MemoryLimitError
 from edmd.runner import RunDirectoryError, TrajectorySizeWarning, restart_directory, run_directory
-from edmd.trajectory import frame_count, read_state
+from edmd.trajectory import frame_count, read_state, trajectory_run_id
 
 
 def small(dim=2, n=64, until=2.0, interval=0.5, **sections):
@@ -73,6 +73,17 @@ def test_a_foreign_checkpoint_is_refused_and_nothing_changes(tmp_path):
     with pytest.raises(RunDirectoryError, match="belongs to run .* another run"):
         restart_directory(a, until_time=3.0)
     assert snapshot_files(a) == before
+
+
+def test_a_foreign_trajectory_is_refused(tmp_path):
+    a, b = tmp_path / "a", tmp_path / "b"
+    run_directory(small(until=1.0), a)
+    run_directory(small(until=1.0, system={"seed": 7}), b)
+    assert trajectory_run_id(a / "trajectory.gsd") in (a / "config.toml").read_text()
+    shutil.copy(b / "trajectory.gsd", a / "trajectory.gsd")
+    with pytest.raises(RunDirectoryError, match="trajectory.gsd was written by run .* different runs"):
+        restart_directory(a, until_time=2.0)
+    assert (a / "trajectory.gsd").read_bytes() == (b / "trajectory.gsd").read_bytes()
 
 
 def test_a_foreign_thermo_file_is_refused(tmp_path):

@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import platform
 import tomllib
-import uuid
 import warnings
 from pathlib import Path
 
@@ -22,7 +22,7 @@ from .initial import lattice, maxwell_boltzmann, random_packing
 from .simulation import Observer, Simulation
 from .state import State
 from .thermo import Thermo, read_thermo
-from .trajectory import Trajectory, read_state, write_state
+from .trajectory import Trajectory, read_state, trajectory_run_id, write_state
 
 #: files a run writes into its directory
 RUN_FILES = ("config.toml", "thermo.csv", "trajectory.gsd", "checkpoint.gsd", "summary.json", "error_state.gsd")
@@ -88,7 +88,7 @@ def make_observers(cfg: Config, out: Path, run_id: str | None = None) -> list[Ob
     if o.thermo:
         observers.append(Thermo(interval, path=out / "thermo.csv"))
     if o.trajectory:
-        observers.append(Trajectory(out / "trajectory.gsd", o.trajectory_interval or interval))
+        observers.append(Trajectory(out / "trajectory.gsd", o.trajectory_interval or interval, run_id=run_id))
     if o.checkpoint and cfg.integrator.kind != "dem":  # the DEM has no checkpoints (yet)
         meta = {"config": dump_config(cfg), "run_id": run_id}
         observers.append(Checkpoint(out / "checkpoint.gsd", o.checkpoint_interval or interval, o.checkpoint_wall_interval, metadata=meta))
@@ -117,6 +117,30 @@ def _claim(out: Path, force: bool):
         path.unlink(missing_ok=True)
 
 
+def run_identity(cfg: Config, state: State) -> str:
+    """The identity of a run: a hash of its configuration (less the keys a restart may change) and
+    of its initial state. Equal identities mean the same trajectory, bit for bit, so the files of a
+    run continued after an interruption stay byte-identical to those of an uninterrupted run.
+
+    Example:
+        >>> from edmd.config import parse_config
+        >>> cfg = parse_config({"system": {"dim": 2, "n": 16}})
+        >>> a = run_identity(cfg, build_state(cfg))
+        >>> cfg.run.until_time = 99.0                  # the end time does not change the run
+        >>> run_identity(cfg, build_state(cfg)) == a, len(a)
+        (True, 32)
+    """
+    fixed = cfg.model_copy(deep=True)
+    defaults = Config()
+    for key in RESTART_MUTABLE:
+        section, name = key.split(".")
+        setattr(getattr(fixed, section), name, getattr(getattr(defaults, section), name))
+    digest = hashlib.sha256(dump_config(fixed).encode())
+    for arr in (state.position, state.velocity, state.radius, state.mass, state.box, state.angular_velocity):
+        digest.update(np.ascontiguousarray(arr).tobytes())
+    return digest.hexdigest()[:32]
+
+
 def config_text(cfg: Config, run_id: str, notes: list[str] = ()) -> str:
     """``config.toml`` of a run: its identity line, any notes (restart changes), the resolved configuration."""
     return _ID_LINE + run_id + "\n" + "".join(f"# {line}\n" for line in notes) + dump_config(cfg)
@@ -127,8 +151,9 @@ def run_directory(cfg: Config, out: str | Path, progress: bool | None = None, *,
     plots and ``summary.json`` into ``out``.
 
     A directory that already holds a run is refused unless ``force``, which removes every file
-    of the old run first (figures included). The run gets an identity (a random id) written
-    into ``config.toml`` and every checkpoint, so that a restart can tell a foreign file. The
+    of the old run first (figures included). The run gets an identity (:func:`run_identity`)
+    written into ``config.toml``, every checkpoint and every trajectory frame, so that a
+    restart can tell a foreign file. The
     end of the run, wherever it stops (``until_time`` off the output grid, ``max_events``,
     ``wall_time``), always writes a last trajectory frame and checkpoint. If the engine fails
     (inelastic collapse, a failed debug check), the state at that moment is saved to
@@ -152,7 +177,7 @@ def run_directory(cfg: Config, out: str | Path, progress: bool | None = None, *,
     sim = build_simulation(cfg)
     _warn_trajectory_size(cfg, sim.state.n, sim.time)
     _claim(out, force=True)
-    run_id = uuid.uuid4().hex
+    run_id = run_identity(cfg, sim.state)
     write_text(out / "config.toml", config_text(cfg, run_id))
     for observer in make_observers(cfg, out, run_id):
         sim.add(observer)
@@ -245,6 +270,13 @@ def _check_identity(out: Path, data: CheckpointData, disk_id: str | None):
             f"{out / 'checkpoint.gsd'} belongs to run {saved_id}, but {out / 'config.toml'} to run {disk_id}: "
             "the checkpoint was copied in from another run; restore this run's checkpoint, or start a new run"
         )
+    trajectory = out / "trajectory.gsd"
+    traj_id = trajectory_run_id(trajectory) if trajectory.is_file() else None
+    if saved_id is not None and traj_id is not None and traj_id != saved_id:
+        raise RunDirectoryError(
+            f"{trajectory} was written by run {traj_id}, but {out / 'checkpoint.gsd'} by run {saved_id}: the files "
+            "come from different runs; restore this run's files, or start a new run"
+        )
     thermo = out / "thermo.csv"
     saved = next((o for o in data.meta["observers"] if o["class"] == "Thermo"), None)
     rows = data.arrays.get(f"observer/{data.meta['observers'].index(saved)}/rows") if saved else None
@@ -295,7 +327,7 @@ def restart_directory(out: str | Path, until_time: float | None = None, progress
             raise ConfigError(f"--until-time {until_time!r} is not after the checkpoint time {data.time!r}: nothing to continue")
         changes["run.until_time"] = (cfg.run.until_time, until_time)
         set_key(cfg, "run.until_time", until_time)
-    run_id = data.metadata.get("run_id") or disk_id or uuid.uuid4().hex
+    run_id = data.metadata.get("run_id") or disk_id or run_identity(cfg, data.state)
     sim = load_checkpoint(path, make_observers(cfg, out, run_id), data=data)
     notes = [f"continued at t = {data.time!r}: {k} {a!r} -> {b!r}" for k, (a, b) in changes.items()]
     previous = _previous_notes(out / "config.toml")

@@ -17,6 +17,7 @@ from __future__ import annotations
 import os
 from collections.abc import Iterator
 
+import gsd.fl
 import gsd.hoomd
 import numpy as np
 
@@ -256,12 +257,39 @@ def write_state(path: str | os.PathLike, state: State, totals: Totals | None = N
         traj.append(state_to_frame(state, totals))
 
 
+#: the log entry holding the identity of the run that wrote a trajectory
+RUN_ID = "edmd/run_id"
+
+
+def trajectory_run_id(path: str | os.PathLike) -> str | None:
+    """The run identity stored in frame 0 of a trajectory (``None`` if it has none or no frames).
+
+    Example:
+        >>> import edmd, tempfile, os
+        >>> p = os.path.join(tempfile.mkdtemp(), "t.gsd")
+        >>> sim = edmd.Simulation(edmd.maxwell_boltzmann(edmd.lattice(32, 0.2), 1.0))
+        >>> _ = sim.add(Trajectory(p, 1.0, run_id="abc123"))
+        >>> sim.run(until_time=1.0); sim.close()
+        >>> trajectory_run_id(p)
+        'abc123'
+    """
+    try:
+        with gsd.fl.open(str(path), "r") as f:
+            if f.nframes == 0 or not f.chunk_exists(0, "log/" + RUN_ID):
+                return None
+            return bytes(f.read_chunk(0, "log/" + RUN_ID)).decode()
+    except (OSError, RuntimeError, ValueError, UnicodeDecodeError) as exc:
+        raise _open_error(path, exc) from exc
+
+
 class Trajectory(Observer):
     """Append a GSD frame (double precision) at every interval.
 
     The file is opened at the first frame (mode ``"w"`` truncates, ``"a"`` appends). In a
     checkpoint it records how many frames the file holds; on restart the file is cut back to
     that many (frames written after the checkpoint by an interrupted run are dropped).
+    ``run_id``, if given, is stored in every frame as ``log/edmd/run_id`` (see
+    :func:`trajectory_run_id`): ``edmd run`` marks its files with the run's identity.
 
     Example:
         >>> import edmd, tempfile, os, gsd.hoomd
@@ -273,12 +301,13 @@ class Trajectory(Observer):
         3
     """
 
-    def __init__(self, path: str | os.PathLike, interval: float, start: float | None = None, mode: str = "w"):
+    def __init__(self, path: str | os.PathLike, interval: float, start: float | None = None, mode: str = "w", run_id: str | None = None):
         if mode not in ("w", "a"):
             raise ValueError(f"mode must be 'w' or 'a', got {mode!r}")
         super().__init__(interval, start)
         self.path = str(path)
         self.mode = mode
+        self.run_id = run_id
         self._file = None
 
     @property
@@ -291,7 +320,10 @@ class Trajectory(Observer):
     def observe(self, sim: Simulation, state: State, totals: Totals):
         if self._file is None:
             self._file = gsd.hoomd.open(self.path, self.mode, precision="double")
-        _append(self._file, state_to_frame(state, totals, pending=sim.engine.emd_rule is not None))
+        frame = state_to_frame(state, totals, pending=sim.engine.emd_rule is not None)
+        if self.run_id is not None:
+            frame.log[RUN_ID] = np.frombuffer(self.run_id.encode(), np.uint8)
+        _append(self._file, frame)
 
     def checkpoint_data(self) -> dict:
         return {**super().checkpoint_data(), "frames": self.frames}
