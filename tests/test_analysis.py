@@ -61,7 +61,7 @@ def test_rdf_of_an_ideal_gas_is_one(dim):
 def test_rdf_of_an_ideal_gas_between_walls_is_one(dim):
     """Uniform centres in the volume they can reach in a box closed by walls on every axis but x:
     the pair-distance weights (1 - |x_k|/L_k) make g = 1 on average (the bulk normalisation gave
-    ~0.6 at r = 4-5 in this 12-diameter box). Over 30 seeds the mean of g over 1.5 < r < 5 scatters
+    0.74-0.81 at r = 4-5 in this 12-diameter box). Over 30 seeds the mean of g over 1.5 < r < 5 scatters
     by 0.5-0.7 % (a finite box is not a torus: pair counts are not binomial): 3.5 % is 5 sigma;
     the outer bins alone (4 < r < 5, ~30 % of the pairs) get 5 %."""
     n, box, radius = 1500, 12.0, 0.5

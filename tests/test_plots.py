@@ -190,9 +190,9 @@ def test_single_particle_run_plots_its_height_not_a_temperature(tmp_path):
 
 
 def test_elastic_run_compares_the_pressure_with_the_equation_of_state(tmp_path):
-    """Elastic hard spheres, eta = 0.3: Z = P/(nT) against Carnahan-Starling Z = 3.97376. 500
-    spheres for 5 time units (~1500 collisions per particle... per row 0.25): the mean of the rows
-    after t = 1 scatters by ~1 % (test_analysis: 0.5 % for 2000 spheres over 8 units): 5 %."""
+    """Elastic hard spheres, eta = 0.3: Z = P/(nT) against Carnahan-Starling Z = 3.97376. For 500
+    spheres the mean of the rows after t = 1 (4 time units) scatters by ~1-2 % (test_analysis: 0.5 %
+    for 2000 spheres over 8 units): 5 %."""
     out, figures = _run(tmp_path, "[system]\nn = 500\npacking_fraction = 0.3\n[run]\nuntil_time = 5.0\noutput_interval = 0.25")
     assert "temperature" not in figures
     ax_p, ax_z = figures["pressure"].axes
@@ -209,7 +209,7 @@ def test_elastic_run_compares_the_pressure_with_the_equation_of_state(tmp_path):
 
 def test_elastic_run_between_walls_has_g_of_r_near_one(tmp_path):
     """A closed box (walls on every axis, 1000 spheres, eta = 0.2, ~13 diameters wide): g(r) at
-    3-5 diameters levelled off near 0.5-0.6 with the bulk normalisation. With the accessible
+    3-5 diameters levelled off near 0.67 with the bulk normalisation. With the accessible
     volume it is ~0.91: the layers at the walls hold ~5 % more particles than their share
     (a real effect of this small box), so the tolerance is 0.15."""
     out, figures = _run(tmp_path, "[system]\nn = 1000\npacking_fraction = 0.2\n[walls]\naxes = ['x', 'y', 'z']\n"
