@@ -61,7 +61,18 @@ def test_the_end_of_a_run_writes_a_final_frame_and_checkpoint(tmp_path, stop):
     assert 0 < end <= 0.5 if stop == "off_grid" else 0 < end < 10.0
     assert frame_count(out / "trajectory.gsd") == 2
     assert read_state(out / "trajectory.gsd").time == end
-    assert read_checkpoint(out / "checkpoint.gsd").time == end == summary["checkpoint_time"]
+    ck = read_checkpoint(out / "checkpoint.gsd")
+    assert ck.final.time == end and ck.time == summary["checkpoint_time"] == 0.0  # restart point: t = 0
+    assert np.array_equal(ck.final.position, read_state(out / "trajectory.gsd").position)
+
+
+def test_a_run_extended_after_an_off_grid_end_is_the_longer_run(tmp_path):
+    short, long = tmp_path / "short", tmp_path / "long"
+    run_directory(small(until=0.7, interval=0.5), short)
+    restart_directory(short, until_time=2.0)
+    run_directory(small(until=2.0, interval=0.5), long)
+    for name in ("thermo.csv", "trajectory.gsd"):
+        assert (short / name).read_bytes() == (long / name).read_bytes(), name
 
 
 def test_a_foreign_checkpoint_is_refused_and_nothing_changes(tmp_path):

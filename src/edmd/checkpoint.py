@@ -58,11 +58,14 @@ class CheckpointData:
         state: the State at the checkpoint time.
         meta: the JSON document (``params``, ``observers``, ``metadata``, ``wall_seconds``...).
         arrays: the engine's and observers' arrays by name (``counters``, ``accumulators``...).
+        final: the state where the run ended, if it ended after the checkpoint point (``edmd
+            run`` always saves its end); a restart continues from ``state`` all the same.
     """
 
     state: State
     meta: dict
     arrays: dict[str, np.ndarray]
+    final: State | None = None
 
     @property
     def time(self) -> float:
@@ -125,9 +128,10 @@ def read_checkpoint(path: str | os.PathLike) -> CheckpointData:
         raise CheckpointError(f"no checkpoint file at {path}")
     try:
         with gsd.hoomd.open(str(path), "r") as f:
-            if len(f) != 1:
-                raise CheckpointError(f"{path} holds {len(f)} frames; a checkpoint holds exactly one")
+            if len(f) not in (1, 2):
+                raise CheckpointError(f"{path} holds {len(f)} frames; a checkpoint holds one (and the final state)")
             frame = f[0]
+            final_frame = f[1] if len(f) == 2 else None
     except (OSError, RuntimeError, ValueError, KeyError) as exc:
         if isinstance(exc, CheckpointError):
             raise
@@ -148,7 +152,24 @@ def read_checkpoint(path: str | os.PathLike) -> CheckpointData:
     except StateError as exc:
         raise CheckpointError(f"{path}: the saved state is invalid: {exc}") from None
     arrays = {k[len(_PREFIX) :]: np.asarray(v) for k, v in log.items() if k.startswith(_PREFIX) and k != _PREFIX + "meta"}
-    return CheckpointData(state=state, meta=meta, arrays=arrays)
+    try:
+        final = None if final_frame is None else frame_to_state(final_frame, check_overlaps=not soft)
+    except StateError as exc:
+        raise CheckpointError(f"{path}: the saved final state is invalid: {exc}") from None
+    return CheckpointData(state=state, meta=meta, arrays=arrays, final=final)
+
+
+def save_final_state(path: str | os.PathLike, state: State, totals: Totals):
+    """Add ``state``, where a run ended off its checkpoint points, to checkpoint ``path`` as its
+    second frame (atomically). A restart still continues from the checkpoint point (frame 0) and
+    recomputes the rest exactly; the final state is :attr:`CheckpointData.final`.
+    """
+    with gsd.hoomd.open(str(path), "r") as f:
+        point = f[0]
+    with atomic_path(path) as tmp:
+        with gsd.hoomd.open(str(tmp), "w", precision="double") as out:
+            out.append(point)
+            out.append(state_to_frame(state, totals))
 
 
 def load_checkpoint(path: str | os.PathLike, observers=(), data: CheckpointData | None = None) -> Simulation:

@@ -14,7 +14,7 @@ import numpy as np
 from pydantic import ValidationError
 
 from ._io import atomic_path, write_text
-from .checkpoint import Checkpoint, CheckpointData, CheckpointError, load_checkpoint, read_checkpoint
+from .checkpoint import Checkpoint, CheckpointData, CheckpointError, load_checkpoint, read_checkpoint, save_final_state
 from .config import Config, ConfigError, dump_config, format_errors, parse_config
 from .engine import EngineError, EngineOptions
 from .memory import check_memory
@@ -155,7 +155,8 @@ def run_directory(cfg: Config, out: str | Path, progress: bool | None = None, *,
     written into ``config.toml``, every checkpoint and every trajectory frame, so that a
     restart can tell a foreign file. The
     end of the run, wherever it stops (``until_time`` off the output grid, ``max_events``,
-    ``wall_time``), always writes a last trajectory frame and checkpoint. If the engine fails
+    ``wall_time``), always writes a last trajectory frame and the final state into the
+    checkpoint (a restart continues from the checkpoint point before it, exactly). If the engine fails
     (inelastic collapse, a failed debug check), the state at that moment is saved to
     ``error_state.gsd`` and the error to ``summary.json`` before the error is raised.
 
@@ -345,16 +346,22 @@ def _previous_notes(path: Path) -> list[str]:
 
 
 def _write_final(sim: Simulation):
-    """The last trajectory frame and checkpoint at the time the run stopped (if not just written)."""
+    """The state where the run stopped, if it stopped between output points: a last trajectory
+    frame, and the final state in the checkpoint (beside its restart point, see
+    :func:`edmd.checkpoint.save_final_state`). Restarts continue from the checkpoint point, cut the
+    trajectory back to it and recompute the rest exactly, so no extra resync enters the run."""
+    for o in sim.observers:
+        if isinstance(o, Checkpoint):
+            o.close()  # writes a point skipped by the wall-clock interval if the run sits on it
     trajectories = [o for o in sim.observers if isinstance(o, Trajectory) and o.last_time != sim.time]
-    checkpoints = [o for o in sim.observers if isinstance(o, Checkpoint) and o.last_written != sim.time]
-    if trajectories:
-        state, totals = sim.state, sim.totals()
-        for o in trajectories:
-            o.observe(sim, state, totals)
+    checkpoints = [o for o in sim.observers if isinstance(o, Checkpoint) and o.last_written is not None and o.last_written != sim.time]
+    if not (trajectories or checkpoints):
+        return
+    state, totals = sim.state, sim.totals()
+    for o in trajectories:
+        o.observe(sim, state, totals)
     for o in checkpoints:
-        sim.engine.resync(sim.time)
-        o.write()
+        save_final_state(o.path, state, totals)
 
 
 def _save_error(sim: Simulation, out: Path, exc: EngineError) -> dict:
@@ -419,7 +426,7 @@ def summarize(sim: Simulation, thermo: Thermo | None) -> dict:
         summary["particle_steps_per_second"] = st.n * sim.events / sim.wall_seconds if sim.wall_seconds > 0 else math.nan
     written = [o.last_written for o in sim.observers if isinstance(o, Checkpoint) and o.last_written is not None]
     if written:
-        summary["checkpoint_time"] = written[-1]
+        summary["checkpoint_time"] = written[-1]  # the restart point (the final state is saved beside it)
     if thermo is not None and thermo.rows:
         summary.update(_pressures(thermo.rows, st.periodic))
     return summary
