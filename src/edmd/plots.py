@@ -363,7 +363,7 @@ def plot_snapshot(state: State, color_by: str = "speed", ax=None, slab: float | 
     if state.dim == 3:
         depth = 3 - h - v
         keep, centre, half = _slab(state, depth, slab, slab_centre)
-        where = f", slab |{'xyz'[depth]} - {centre:.4g}| <= {half:.3g}"
+        where = f", slab |{'xyz'[depth]} {'-' if centre >= 0 else '+'} {abs(centre):.4g}| <= {half:.3g}"
     idx = np.flatnonzero(keep)
     sub = _sample(idx.size, MAX_PARTICLES if max_particles is None else max_particles)
     if sub is not None:
@@ -560,13 +560,13 @@ def run_figures(run_dir: str | os.PathLike, color_by: str = "speed") -> dict:
 
     Example:
         >>> import edmd, tempfile, pathlib
+        >>> from edmd.trajectory import write_state
         >>> out = pathlib.Path(tempfile.mkdtemp())
-        >>> sim = edmd.Simulation(edmd.maxwell_boltzmann(edmd.lattice(27, 0.1), 1.0, seed=1))
-        >>> _ = sim.add(edmd.Thermo(0.5, path=out / "thermo.csv"))
-        >>> _ = sim.add(edmd.Trajectory(out / "trajectory.gsd", 0.5)); sim.run(until_time=1.0); sim.close()
-        >>> figures = run_figures(out)   # no config.toml: the kind of run is unknown
+        >>> write_state(out / "trajectory.gsd", edmd.maxwell_boltzmann(edmd.lattice(27, 0.1), 1.0, seed=1))
+        >>> _ = (out / "thermo.csv").write_text("time,temperature,pressure,kinetic_energy,dissipated_energy\\n0,1,nan,40.5,0\\n")
+        >>> figures = run_figures(out)   # one frame, no config.toml: the kind of run is unknown
         >>> sorted(figures), "N = 27" in figures["snapshot"].get_suptitle()
-        (['energy', 'msd', 'rdf', 'snapshot', 'temperature', 'velocity_distribution'], True)
+        (['energy', 'rdf', 'snapshot', 'temperature', 'velocity_distribution'], True)
     """
     run_dir = Path(run_dir)
     if not run_dir.is_dir():
