@@ -142,6 +142,17 @@ def test_truncated_trajectory_is_byte_for_byte_the_shorter_one(tmp_path):
     assert (tmp_path / "long.gsd").read_bytes() == (tmp_path / "short.gsd").read_bytes()
 
 
+def test_a_partial_frame_left_by_a_kill_is_cut_off(tmp_path):
+    # kill -9 while a frame is written: its data lie after the last complete frame, outside the index
+    _trajectory(tmp_path / "killed.gsd", 1.0, interval=0.25, n=27)
+    _trajectory(tmp_path / "clean.gsd", 1.0, interval=0.25, n=27)
+    with open(tmp_path / "killed.gsd", "ab") as f:
+        f.write(np.random.default_rng(0).bytes(3000))
+    assert frame_count(tmp_path / "killed.gsd") == 5
+    truncate_frames(tmp_path / "killed.gsd", 5)
+    assert (tmp_path / "killed.gsd").read_bytes() == (tmp_path / "clean.gsd").read_bytes()
+
+
 def test_frames_selection_and_truncation(tmp_path):
     sim = edmd.Simulation(edmd.maxwell_boltzmann(edmd.lattice(32, 0.2), 1.0))
     sim.add(Trajectory(tmp_path / "t.gsd", interval=0.25))

@@ -203,7 +203,7 @@ def iter_states(path: str | os.PathLike, start: int = 0, stop: int | None = None
 
 
 def truncate_frames(path: str | os.PathLike, frames: int):
-    """Keep only the first ``frames`` frames of a GSD file (rewritten atomically if longer).
+    """Keep only the first ``frames`` frames of a GSD file (rewritten atomically).
 
     Used on restart: frames written after the checkpoint by the interrupted run are dropped. The
     frames are written again as :class:`Trajectory` wrote them, so the file is byte for byte the
@@ -212,8 +212,8 @@ def truncate_frames(path: str | os.PathLike, frames: int):
     have = frame_count(path)
     if have < frames:
         raise StateError(f"{path} has {have} frames, fewer than the {frames} the checkpoint expects")
-    if have == frames:
-        return
+    # rewritten even when no frame is dropped: a run killed while writing a frame leaves its
+    # partial data after the last complete frame, which appending would keep
     with atomic_path(path) as tmp:
         with gsd.hoomd.open(str(path), "r") as src, gsd.hoomd.open(str(tmp), "w", precision="double") as dst:
             for k in range(frames):
