@@ -148,8 +148,8 @@ def test_a_partial_frame_left_by_a_kill_is_cut_off(tmp_path):
     _trajectory(tmp_path / "clean.gsd", 1.0, interval=0.25, n=27)
     with open(tmp_path / "killed.gsd", "ab") as f:
         f.write(np.random.default_rng(0).bytes(3000))
-    assert frame_count(tmp_path / "killed.gsd") == 5
-    truncate_frames(tmp_path / "killed.gsd", 5)
+    assert frame_count(tmp_path / "killed.gsd") == 4  # frames at 0.25, 0.5, 0.75, 1.0
+    truncate_frames(tmp_path / "killed.gsd", 4)
     assert (tmp_path / "killed.gsd").read_bytes() == (tmp_path / "clean.gsd").read_bytes()
 
 
