@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from .analysis._common import axes
-from .plots import _sample, _slab
+from .plots import sample_particles, slab_mask
 from .state import State
 from .trajectory import frame_count, iter_states
 
@@ -117,7 +117,7 @@ def _draw(ax, state: State, color_by: str, particles: np.ndarray, slab: float | 
 
     shown, where = particles, ""
     if state.dim == 3:
-        keep, centre, half = _slab(state, 2, slab, centre)
+        keep, centre, half = slab_mask(state, 2, slab, centre)
         shown = particles[keep[particles]]
         where = f", slab |z - {centre:.4g}| <= {half:.3g}"
     d = 2.0 * state.radius[shown]
@@ -250,9 +250,9 @@ def make_movie(
         raise MovieError(f"max_particles must be a positive integer, got {max_particles!r}")
     states = iter_states(traj, step=math.ceil(n / frames) if frames else 1, check_overlaps=False)
     first = next(states)
-    particles = _sample(first.n, max_particles)
+    particles = sample_particles(first.n, max_particles)
     particles = np.arange(first.n) if particles is None else particles
-    centre = _slab(first, 2, slab, None)[1] if first.dim == 3 else None
+    centre = slab_mask(first, 2, slab, None)[1] if first.dim == 3 else None
     ax = plot_frame(first, color_by, slab=slab, slab_centre=centre, particles=particles)
     tmp = out.with_name(f".{out.stem}.partial{out.suffix}")
     try:

@@ -287,8 +287,15 @@ def plot_energy(thermo, ax=None):
     return ax
 
 
-def _sample(n: int, at_most: int) -> np.ndarray | None:
-    """Sorted indices of a fixed random subset of ``at_most`` of ``n`` particles (``None``: keep all)."""
+def sample_particles(n: int, at_most: int) -> np.ndarray | None:
+    """Sorted indices of a fixed random subset of ``at_most`` of ``n`` particles (``None``: keep all).
+
+    The subset is the same at every call, so the frames of a movie or an MSD follow the same particles.
+
+    Example:
+        >>> sample_particles(10, 20) is None, sample_particles(10**6, 3).tolist() == sample_particles(10**6, 3).tolist()
+        (True, True)
+    """
     if n <= at_most:
         return None
     return np.sort(np.random.default_rng(0).choice(n, at_most, replace=False))
@@ -313,8 +320,18 @@ def _take(state: State, keep: np.ndarray | None) -> State:
     )
 
 
-def _slab(state: State, axis: int, thickness: float | None, centre: float | None):
-    """Particles whose centres lie within ``thickness/2`` of ``centre`` along ``axis`` (default: the median particle's)."""
+def slab_mask(state: State, axis: int, thickness: float | None, centre: float | None):
+    """Particles whose centres lie within ``thickness/2`` of ``centre`` along ``axis``.
+
+    Defaults: one mean diameter thick, centred on the median particle (so a slab through a
+    lattice or a settled bed is never empty). Returns the mask, the centre and the half thickness.
+
+    Example:
+        >>> import edmd
+        >>> mask, centre, half = slab_mask(edmd.lattice(500, 0.3), 2, None, None)
+        >>> bool(mask.any()), half
+        (True, 0.5)
+    """
     x = state.position[:, axis]
     thickness = 2.0 * float(state.radius.mean()) if thickness is None else thickness
     centre = float(np.partition(x, x.size // 2)[x.size // 2]) if centre is None else centre
@@ -362,10 +379,10 @@ def plot_snapshot(state: State, color_by: str = "speed", ax=None, slab: float | 
     keep = np.ones(state.n, bool)
     if state.dim == 3:
         depth = 3 - h - v
-        keep, centre, half = _slab(state, depth, slab, slab_centre)
+        keep, centre, half = slab_mask(state, depth, slab, slab_centre)
         where = f", slab |{'xyz'[depth]} {'-' if centre >= 0 else '+'} {abs(centre):.4g}| <= {half:.3g}"
     idx = np.flatnonzero(keep)
-    sub = _sample(idx.size, MAX_PARTICLES if max_particles is None else max_particles)
+    sub = sample_particles(idx.size, MAX_PARTICLES if max_particles is None else max_particles)
     if sub is not None:
         where += f", {sub.size} of {idx.size} shown"
         idx = idx[sub]
@@ -523,7 +540,7 @@ def _msd(run: _Run, traj: Path, frames: int) -> MSD:
     steps = np.diff(_frame_times(traj))
     window = run.kind == "elastic" and steps[0] > 0 and np.allclose(steps, steps[0], rtol=1e-9)
     at_most = max(1, MSD_SAMPLES // frames) if window else MAX_PARTICLES
-    return MSD("window" if window else "direct").compute(_frames(traj, keep=_sample(run.first.n, at_most)))
+    return MSD("window" if window else "direct").compute(_frames(traj, keep=sample_particles(run.first.n, at_most)))
 
 
 def _snapshot_view(run: _Run) -> str:
@@ -533,7 +550,7 @@ def _snapshot_view(run: _Run) -> str:
 
 def _frame_figures(run: _Run, traj: Path, frames: int, color_by: str) -> dict:
     n = run.first.n
-    last = list(_frames(traj, start=max(frames - 5, 0), keep=_sample(n, MAX_PARTICLES)))
+    last = list(_frames(traj, start=max(frames - 5, 0), keep=sample_particles(n, MAX_PARTICLES)))
     drawn = {}
     if n > 1 and all(s.temperature() > 0 for s in last):  # particles at rest have no distribution
         drawn["velocity_distribution"] = VelocityDistribution().compute(last).plot()
