@@ -139,3 +139,14 @@ def test_cli_sweep_file_given_to_run_suggests_sweep(tmp_path):
 def test_run_help_shows_section_names():
     r = runner.invoke(app, ["run", "--help"], env={"COLUMNS": "250"})
     assert "[system] settings are then ignored" in r.output and "( is then ignored" not in r.output
+
+
+def test_cli_announces_a_large_trajectory(tmp_path, monkeypatch):
+    import edmd.runner
+
+    monkeypatch.setattr(edmd.runner, "TRAJECTORY_WARN_BYTES", 1)
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(SMALL.format(dim=2))
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "run")])
+    assert r.exit_code == 0 and "warning: trajectory.gsd will take about" in r.output
+    assert "TrajectorySizeWarning" not in r.output  # one readable line, not Python's warning format

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import collections
 import contextlib
+import warnings
 from pathlib import Path
 
 import typer
@@ -17,6 +18,11 @@ from .state import StateError
 app = typer.Typer(add_completion=False, no_args_is_help=True, help="Event-driven molecular dynamics of hard and soft spheres and disks.")
 console = Console()
 err_console = Console(stderr=True)
+
+
+def _warn(message, category, filename, lineno, file=None, line=None):
+    """Warnings of a command as one readable line (not Python's file:line prefix)."""
+    err_console.print(f"[bold yellow]warning:[/] {escape(str(message))}", soft_wrap=True)
 
 
 def _fail(msg: str):
@@ -66,18 +72,20 @@ def run(
         console.print("[dim]first run on this machine: compiling the core (a few minutes, cached afterwards)[/]")
 
     try:
-        if restart is not None:
-            if config is not None or start_from is not None or force or debug:
-                raise ConfigError("--restart continues a run directory with its own configuration: give no CONFIG, --from, --force or --debug")
-            out = restart
-            summary = restart_directory(restart, until_time=until_time, progress=None if progress else False)
-        else:
-            if until_time is not None:
-                raise ConfigError("--until-time goes with --restart; set [run] until_time in the configuration")
-            cfg = _load_job(config, start_from, frame)
-            if debug:
-                cfg.engine.debug = True
-            summary = run_directory(cfg, out, progress=progress and cfg.run.progress, force=force, max_memory=max_memory)
+        with warnings.catch_warnings():
+            warnings.showwarning = _warn  # restored on exit (the CLI may run inside another program)
+            if restart is not None:
+                if config is not None or start_from is not None or force or debug:
+                    raise ConfigError("--restart continues a run directory with its own configuration: give no CONFIG, --from, --force or --debug")
+                out = restart
+                summary = restart_directory(restart, until_time=until_time, progress=None if progress else False)
+            else:
+                if until_time is not None:
+                    raise ConfigError("--until-time goes with --restart; set [run] until_time in the configuration")
+                cfg = _load_job(config, start_from, frame)
+                if debug:
+                    cfg.engine.debug = True
+                summary = run_directory(cfg, out, progress=progress and cfg.run.progress, force=force, max_memory=max_memory)
     except (ConfigError, StateError, CheckpointError, ValueError, OSError, EngineError) as exc:
         _fail(str(exc))
     except KeyboardInterrupt:
