@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 import edmd
-from edmd.memory import MAX_CELLS_PER_PARTICLE, MemoryLimitError, check_memory, estimate_bytes, grid_shape, parse_bytes
+from edmd._core.cells import grid_shape as one_diameter_grid
+from edmd.memory import MemoryLimitError, check_memory, estimate_bytes, grid_shape, max_cells, parse_bytes
 
 
 def test_guard_names_the_cause_and_the_remedy():
@@ -23,15 +24,16 @@ def test_memory_sizes(text, size):
 
 def test_grid_is_bounded_by_the_particle_number(dim):
     n = 200
-    state = edmd.random_packing(n, 1e-5, dim=dim, seed=1)  # one-diameter cells: 1e7 (3D) cells
+    state = edmd.random_packing(n, 1e-6, dim=dim, seed=1)  # one-diameter cells: 1e8 (3D), 3e7 (2D)
     nc = grid_shape(np.r_[state.box, [1.0] * (3 - dim)], [True] * dim + [False] * (3 - dim), 1.0, n)
-    assert np.prod(nc) <= MAX_CELLS_PER_PARTICLE * n and np.all(nc[:dim] >= 4)
+    assert np.prod(nc) <= max_cells(n) and np.all(nc[:dim] >= 4)
     sim = edmd.Simulation(edmd.maxwell_boltzmann(state, 1.0, seed=2), engine={"neighbours": "cells"})
-    assert np.prod(sim.engine.grid_cells) <= MAX_CELLS_PER_PARTICLE * n
+    assert np.prod(sim.engine.grid_cells) <= max_cells(n)
 
 
 def test_coarse_cells_give_the_same_collisions_as_lists(dim):
-    # eta = 1e-3: one-diameter cells would be 500 per particle; the bounded grid is coarser and must
+    # eta = 1e-3: one-diameter cells would be 500 (3D) or 800 (2D) per particle, above max_cells: the
+    # bounded grid is coarser and must
     # change nothing but the bookkeeping: the same collisions as neighbour lists, to round-off (1e-16
     # relative, amplified by ~lambda/sigma ~ 100 per collision of the chaotic dilute gas: < 1e-6 sigma here)
     state = edmd.maxwell_boltzmann(edmd.random_packing(400, 1e-3, dim=dim, seed=3), 1.0, seed=4)
@@ -40,7 +42,8 @@ def test_coarse_cells_give_the_same_collisions_as_lists(dim):
         sim = edmd.Simulation(state, e_n=0.9, engine={"neighbours": mode})
         sim.run(until_time=60.0)
         runs[mode] = sim
-    assert np.prod(runs["cells"].engine.grid_cells) <= MAX_CELLS_PER_PARTICLE * 400
+    e = runs["cells"].engine
+    assert np.prod(e.grid_cells) <= max_cells(400) < np.prod(one_diameter_grid(e.box, np.r_[e.periodic, [False] * (3 - dim)], 1.0))
     assert runs["cells"].collisions == runs["list"].collisions > 50
     a, b = runs["cells"].state, runs["list"].state
     assert np.allclose(a.unwrapped_position, b.unwrapped_position, rtol=0, atol=1e-6)

@@ -6,7 +6,7 @@ neighbour lists, the calendar, transient copies at set-up): about :data:`BYTES_P
 grid would add 4 bytes per cell and grows with the box *volume*: at packing fraction 1e-6 a grid
 of one-diameter cells for 1e4 spheres has 5e9 cells. :func:`grid_shape` therefore coarsens the
 cells of dilute systems so that there are at most :data:`MAX_CELLS_PER_PARTICLE` cells per
-particle: cells larger than the contact distance are always correct, and at such densities a
+particle (or :data:`MIN_CELL_CAP` in all): cells larger than the contact distance are always correct, and at such densities a
 cell holds a few particles at most.
 """
 
@@ -24,8 +24,10 @@ from ._core.cells import grid_shape as _grid_shape
 BYTES_PER_PARTICLE = 1100
 #: bytes of one grid cell (the head of its linked list, int32)
 BYTES_PER_CELL = 4
-#: the cell grid never has more cells than this per particle (dilute systems get larger cells)
+#: the cell grid never has more cells than this per particle (dilute systems get larger cells)...
 MAX_CELLS_PER_PARTICLE = 16
+#: ...unless it is this small anyway (256 KB): small systems keep one-diameter cells
+MIN_CELL_CAP = 2**16
 
 
 class MemoryLimitError(ValueError):
@@ -33,15 +35,15 @@ class MemoryLimitError(ValueError):
 
 
 def grid_shape(box, periodic, min_cell: float, n: int) -> np.ndarray:
-    """Cells per axis: edges of at least ``min_cell``, at most ``MAX_CELLS_PER_PARTICLE * n`` cells.
+    """Cells per axis: edges of at least ``min_cell``, at most :func:`max_cells` of them.
 
     Example:
-        >>> box = np.array([1000.0, 1000.0, 1000.0])
-        >>> grid_shape(box, [True] * 3, 1.0, 100).tolist()   # not 1e9 cells for 100 particles
-        [11, 11, 11]
+        >>> box = np.array([10000.0, 10000.0, 10000.0])
+        >>> grid_shape(box, [True] * 3, 1.0, 10000).tolist()   # not 1e12 cells for 1e4 particles
+        [54, 54, 54]
     """
     nc = _grid_shape(box, periodic, min_cell)
-    cap = max(MAX_CELLS_PER_PARTICLE * n, 4 ** int(np.count_nonzero(nc > 1)))
+    cap = max_cells(n)
     while int(np.prod(nc)) > cap:
         split = nc > 1
         shrink = (int(np.prod(nc)) / cap) ** (1.0 / int(np.count_nonzero(split)))
@@ -49,6 +51,16 @@ def grid_shape(box, periodic, min_cell: float, n: int) -> np.ndarray:
         min_cell = max(min_cell, edge)
         nc = _grid_shape(box, periodic, min_cell)
     return nc
+
+
+def max_cells(n: int) -> int:
+    """The most cells a grid for ``n`` particles may have.
+
+    Example:
+        >>> max_cells(100), max_cells(10**6)
+        (65536, 16000000)
+    """
+    return max(MAX_CELLS_PER_PARTICLE * int(n), MIN_CELL_CAP)
 
 
 def estimate_bytes(n: int) -> int:
