@@ -71,6 +71,23 @@ def test_two_body_with_gravity(rng):
         assert np.max(np.abs(s.velocity[k] - vel[k])) < 1e-8
 
 
+def test_a_state_with_pending_contacts_can_be_assigned(rng, dim):
+    """``sim.state = s`` takes eMD* states mid-contact, as checkpoints do, and continues the contact."""
+    contact = Hertz(young=600.0, poisson=0.3, A=2e-2)
+    r0, v0 = random_contact(rng, dim, R, 2.0, 0.5)
+    sim = Simulation(two_body_state(r0, v0, dim, 0.25), collision=EMDStar(contact, tables="exact"))
+    tc, _p, _v = direct_two_spheres(contact, M, R, r0, v0, np.zeros(3), 1.0)
+    sim.run(until_time=0.25 + 0.5 * tc)
+    mid = sim.state
+    assert mid.has_pending and mid.overlapping_pair() is not None
+    again = Simulation(two_body_state(r0, v0, dim, 0.25), collision=EMDStar(contact, tables="exact"))
+    again.state = mid
+    for s in (sim, again):
+        s.run(until_time=0.25 + 2.0 * tc)
+    np.testing.assert_allclose(again.state.velocity, sim.state.velocity, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(again.state.unwrapped_position, sim.state.unwrapped_position, rtol=0, atol=1e-12)
+
+
 def test_pending_contact_observables_and_conservation(rng, dim):
     """Between A and B: committed velocities carry the momentum and energy (physics.md §4.8, T12)."""
     contact = Hertz(young=600.0, poisson=0.3, A=2e-2)

@@ -109,3 +109,19 @@ def test_maxwell_boltzmann_refuses_a_temperature_for_one_particle(dim):
     with pytest.raises(edmd.StateError, match="single particle .* cannot have a temperature"):
         edmd.maxwell_boltzmann(one, 1.0)
     assert np.all(edmd.maxwell_boltzmann(one, 0.0).velocity == 0.0)
+
+
+def test_polydisperse_lattice_returns_the_arrangement_it_checked():
+    # 3 large (R = 0.5) among 29 small (R = 0.3) fcc sites: sites are 0.8-1.0 apart, so an arrangement
+    # is valid iff no two large ones are neighbours. Every seed either gives a valid state or the
+    # explanation; the radii used to be shuffled again after the check (raw overlap errors)
+    outcomes = set()
+    for seed in range(40):
+        try:
+            s = lattice(32, 0.35, radius={"kind": "discrete", "values": [0.5, 0.3], "fractions": [0.1, 0.9]}, seed=seed)
+            assert s.overlapping_pair() is None
+            outcomes.add("built")
+        except StateError as exc:
+            assert "cannot be built on a fcc lattice" in str(exc)
+            outcomes.add("explained")
+    assert outcomes == {"built", "explained"}

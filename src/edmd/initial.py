@@ -165,7 +165,6 @@ def lattice(
         raise StateError(f"lattice {kind!r} is not a {dim}D lattice; choose from {LATTICES[dim]}")
     rng = np.random.default_rng(seed)
     r = radii(n, radius, rng)
-    m = _masses(r, dim, mass, density)
     v_particles = float(np.sum(4.0 / 3.0 * np.pi * r**3 if dim == 3 else np.pi * r**2))
     per_cell = {"sc": 1, "fcc": 4, "square": 1, "hex": 2}[kind]
     _, cell = lattice_sites(kind, [1] * dim)
@@ -203,7 +202,6 @@ def lattice(
                 f"neighbouring sites are {nn:.6g} apart but the largest diameter is {2 * r.max():.6g} "
                 f"(at most {eta_max:.4f} here; n = {magic} fills the lattice exactly)"
             )
-    r = rng.permutation(r) if np.ptp(r) > 0 else r
     m = _masses(r, dim, mass, density)
     return State(position=pos, velocity=np.zeros_like(pos), radius=r, mass=m, box=box, periodic=periodic)
 
