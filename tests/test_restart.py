@@ -15,7 +15,7 @@ import edmd
 import edmd.runner
 from edmd import Thermo, Trajectory
 from edmd._io import atomic_path
-from edmd.checkpoint import Checkpoint, CheckpointError, load_checkpoint, read_checkpoint, save_checkpoint
+from edmd.checkpoint import Checkpoint, CheckpointError, load_checkpoint, read_checkpoint, save_checkpoint, save_final_state
 from edmd.cli import app
 
 FIELDS = ("position", "velocity", "radius", "mass", "box", "angular_velocity", "inertia", "image", "periodic")
@@ -138,6 +138,26 @@ def test_emdstar_run_with_pending_contacts_restarts_bit_for_bit(tmp_path, dim):
     assert sim.totals() == whole.totals()
     counters = whole.engine.emd_counters()
     assert counters["emd_contacts"] > 100 and whole.totals().wall_collisions > 10
+
+
+def test_final_state_without_pending_contacts_beside_a_point_with_them(tmp_path):
+    """GSD reads a log entry missing from frame 1 from frame 0: the final state must not inherit
+    the checkpoint point's pending eMD* contacts."""
+    from edmd.emdstar import EMDStar
+
+    s = edmd.maxwell_boltzmann(edmd.random_packing(300, 0.2, dim=2, seed=9), 1.0, seed=10)
+    sim = edmd.Simulation(s, collision=EMDStar(edmd.Hertz(young=2e3, poisson=0.3, A=2e-3)))
+    sim.run(until_time=1.0)
+    path = tmp_path / "ck.gsd"
+    save_checkpoint(sim, path)
+    point = sim.state
+    assert point.has_pending
+    fields = {f: getattr(point, f) for f in ("position", "velocity", "radius", "mass", "box", "time", "angular_velocity", "image", "periodic")}
+    settled = edmd.State(**fields, check_overlaps=False)  # the same particles with no contact pending
+    save_final_state(path, settled, sim.totals())
+    ck = read_checkpoint(path)
+    assert ck.state.has_pending and not ck.final.has_pending
+    assert np.array_equal(ck.final.pending_partner, settled.pending_partner)
 
 
 def test_wall_clock_interval_decides_only_what_is_written(tmp_path):

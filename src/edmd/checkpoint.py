@@ -166,10 +166,13 @@ def save_final_state(path: str | os.PathLike, state: State, totals: Totals):
     """
     with gsd.hoomd.open(str(path), "r") as f:
         point = f[0]
+    # GSD reads a log entry missing from frame 1 from frame 0: write the pending eMD* fields
+    # whenever the point has them, or the final state would inherit the point's contacts
+    pending = True if "particles/pending_partner" in point.log else None
     with atomic_path(path) as tmp:
         with gsd.hoomd.open(str(tmp), "w", precision="double") as out:
             out.append(point)
-            out.append(state_to_frame(state, totals))
+            out.append(state_to_frame(state, totals, pending=pending))
 
 
 def load_checkpoint(path: str | os.PathLike, observers=(), data: CheckpointData | None = None) -> Simulation:
