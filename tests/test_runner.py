@@ -141,6 +141,22 @@ def test_restart_until_a_time_before_the_checkpoint_is_an_error(tmp_path):
     assert "errors.pydantic.dev" not in str(err.value)
 
 
+def test_restart_to_an_end_the_run_passed_is_an_error_and_keeps_its_files(tmp_path):
+    out = tmp_path / "run"
+    run_directory(small(until=2.0, interval=0.5, output={"checkpoint_interval": 1.5}), out)  # point 1.5, end 2.0
+    before = snapshot_files(out)
+    with pytest.raises(ConfigError, match=r"--until-time 1.75 is before t = 2.0, where the run already ended"):
+        restart_directory(out, until_time=1.75)
+    path = out / "config.toml"
+    path.write_text(path.read_text().replace("until_time = 2.0", "until_time = 1.75"))
+    with pytest.raises(ConfigError, match=r"run.until_time = 1.75 is before t = 2.0"):
+        restart_directory(out)
+    path.write_bytes(before["config.toml"])
+    with pytest.raises(ConfigError, match=r"the run is complete \(it reached run.until_time = 2.0\): give a later --until-time"):
+        restart_directory(out)
+    assert snapshot_files(out) == before
+
+
 def test_a_collapse_saves_the_state_and_the_summary(tmp_path):
     # a ball on an inelastic floor, no TC: the bounces accumulate at a finite time (Zeno)
     cfg = parse_config(

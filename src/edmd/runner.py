@@ -328,6 +328,7 @@ def restart_directory(out: str | Path, until_time: float | None = None, progress
             raise ConfigError(f"--until-time {until_time!r} is not after the checkpoint time {data.time!r}: nothing to continue")
         changes["run.until_time"] = (cfg.run.until_time, until_time)
         set_key(cfg, "run.until_time", until_time)
+    _check_end(cfg.run.until_time, data, "--until-time" if until_time is not None else "run.until_time =")
     run_id = data.metadata.get("run_id") or disk_id or run_identity(cfg, data.state)
     sim = load_checkpoint(path, make_observers(cfg, out, run_id), data=data)
     notes = [f"continued at t = {data.time!r}: {k} {a!r} -> {b!r}" for k, (a, b) in changes.items()]
@@ -335,6 +336,19 @@ def restart_directory(out: str | Path, until_time: float | None = None, progress
     write_text(out / "config.toml", config_text(cfg, run_id, previous + notes))
     summary = _execute(sim, cfg, out, progress, extra={"restart_changes": {k: list(v) for k, v in changes.items()}} if changes else None)
     return summary
+
+
+def _check_end(end: float, data: CheckpointData, what: str):
+    """Refuse a restart to ``end`` if the run already got there (nothing to do) or beyond (the
+    restart would drop the frames, rows and final state it wrote after ``end``)."""
+    reached = data.time if data.final is None else data.final.time
+    if end < reached:
+        raise ConfigError(
+            f"{what} {end!r} is before t = {reached!r}, where the run already ended: the restart would drop "
+            f"what the run wrote after t = {end!r}; give a later end time, or start a new run"
+        )
+    if end == reached:
+        raise ConfigError(f"the run is complete (it reached {what} {end!r}): give a later --until-time to extend it")
 
 
 def _previous_notes(path: Path) -> list[str]:
