@@ -52,6 +52,24 @@ def test_force_removes_every_file_of_the_old_run(tmp_path):
     assert json.loads((out / "summary.json").read_text())["time"] == 1.0
 
 
+def test_images_of_the_user_are_not_a_run_and_stay(tmp_path):
+    out = tmp_path / "project"
+    out.mkdir()
+    (out / "figure1.png").write_bytes(b"mine")
+    (out / "talk.gif").write_bytes(b"mine")
+    run_directory(small(until=1.0), out)  # not refused: no file of a run there
+    (out / "snapshot.png").write_bytes(b"old")  # a figure edmd writes: stale once the run is replaced
+    run_directory(small(until=1.0), out, force=True)
+    assert (out / "figure1.png").read_bytes() == (out / "talk.gif").read_bytes() == b"mine"
+    assert not (out / "snapshot.png").exists()
+
+
+@pytest.mark.parametrize("collision", [{}, {"rule": "inelastic", "e_n": 0.9}])
+def test_every_figure_of_a_run_is_a_run_file(tmp_path, collision):
+    summary = run_directory(small(until=1.0, collision=collision, output={"plots": True}), tmp_path / "run")
+    assert summary["plots"] and set(summary["plots"]) <= set(edmd.runner.RUN_FIGURES)
+
+
 @pytest.mark.parametrize("stop", ["off_grid", "max_events"])
 def test_the_end_of_a_run_writes_a_final_frame_and_checkpoint(tmp_path, stop):
     cfg = small(until=0.5, interval=10.0) if stop == "off_grid" else small(until=50.0, interval=10.0, run={"max_events": 3000})

@@ -26,8 +26,11 @@ from .trajectory import Trajectory, read_state, trajectory_run_id, write_state
 
 #: files a run writes into its directory
 RUN_FILES = ("config.toml", "thermo.csv", "trajectory.gsd", "checkpoint.gsd", "summary.json", "error_state.gsd")
-#: figures and movies a run directory may hold (``edmd plot``, ``edmd movie``)
-RUN_FIGURES = ("*.png", "*.gif", "*.mp4")
+#: the figures and movies edmd writes into a run directory (``edmd plot``, ``edmd movie``); other
+#: images there are the user's: they neither make the directory a run nor are removed with it
+RUN_FIGURES = tuple(
+    f"{stem}.png" for stem in ("temperature", "pressure", "emd_exceptions", "height", "energy", "velocity_distribution", "rdf", "msd", "snapshot")
+) + ("movie.gif", "movie.mp4")
 #: configuration keys that may change when a run is continued (they do not change its physics)
 RESTART_MUTABLE = ("run.until_time", "run.max_events", "run.wall_time", "run.progress", "output.plots")
 _ID_LINE = "# edmd run id: "
@@ -97,8 +100,7 @@ def make_observers(cfg: Config, out: Path, run_id: str | None = None) -> list[Ob
 
 def run_files(out: Path) -> list[Path]:
     """The files of a run in directory ``out`` (its data, figures and movies)."""
-    found = [out / name for name in RUN_FILES if (out / name).exists()]
-    return found + sorted(p for pattern in RUN_FIGURES for p in out.glob(pattern))
+    return [out / name for name in RUN_FILES + RUN_FIGURES if (out / name).exists()]
 
 
 def _claim(out: Path, force: bool):
