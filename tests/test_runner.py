@@ -175,6 +175,15 @@ def test_restart_to_an_end_the_run_passed_is_an_error_and_keeps_its_files(tmp_pa
     assert snapshot_files(out) == before
 
 
+def test_an_end_time_before_the_time_of_a_from_file_state_is_an_error(tmp_path):
+    run_directory(small(until=3.0), tmp_path / "first")
+    cfg = small(until=2.0, system={"from_file": str(tmp_path / "first" / "trajectory.gsd")})
+    with pytest.raises(ConfigError, match=r"run.until_time = 2.0 is not after the initial time 3.0 \(frame -1 of .*trajectory.gsd\)"):
+        run_directory(cfg, tmp_path / "second")
+    assert not (tmp_path / "second").exists()
+    assert run_directory(small(until=4.0, system={"from_file": str(tmp_path / "first" / "trajectory.gsd")}), tmp_path / "third")["time"] == 4.0
+
+
 def test_a_collapse_saves_the_state_and_the_summary(tmp_path):
     # a ball on an inelastic floor, no TC: the bounces accumulate at a finite time (Zeno)
     cfg = parse_config(

@@ -104,16 +104,19 @@ def run_files(out: Path) -> list[Path]:
 
 
 def _claim(out: Path, force: bool):
-    """Refuse a directory holding another run's files, unless ``force``; then remove them all."""
+    """Refuse a directory holding another run's files, unless ``force`` (nothing is created then);
+    with ``force``, create the directory and remove them all."""
     if out.exists() and not out.is_dir():
         raise RunDirectoryError(f"{out} exists and is not a directory")
     old = run_files(out) if out.is_dir() else []
-    if old and not force:
-        names = ", ".join(p.name for p in old[:6]) + (", ..." if len(old) > 6 else "")
-        raise RunDirectoryError(
-            f"{out} already holds a run ({names}): continue it with `edmd run --restart {out}`, choose another "
-            "--out, or replace it with --force"
-        )
+    if not force:
+        if old:
+            names = ", ".join(p.name for p in old[:6]) + (", ..." if len(old) > 6 else "")
+            raise RunDirectoryError(
+                f"{out} already holds a run ({names}): continue it with `edmd run --restart {out}`, choose another "
+                "--out, or replace it with --force"
+            )
+        return
     out.mkdir(parents=True, exist_ok=True)
     for path in old:
         path.unlink(missing_ok=True)
@@ -178,6 +181,11 @@ def run_directory(cfg: Config, out: str | Path, progress: bool | None = None, *,
     if not force:
         _claim(out, force=False)
     sim = build_simulation(cfg)
+    if sim.time >= cfg.run.until_time:  # a state read from a file has its own time
+        raise ConfigError(
+            f"run.until_time = {cfg.run.until_time!r} is not after the initial time {sim.time!r} (frame "
+            f"{cfg.system.from_frame} of {cfg.system.from_file}): until_time is absolute, set it later than {sim.time!r}"
+        )
     _warn_trajectory_size(cfg, sim.state.n, sim.time)
     _claim(out, force=True)
     run_id = run_identity(cfg, sim.state)
