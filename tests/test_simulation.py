@@ -85,3 +85,28 @@ def test_bad_parameters(dim):
         _sim(dim, engine={"neighbors": "list"})
     with pytest.raises(ValueError, match="observer interval"):
         Callback(lambda s, t: None, interval=0.0)
+
+
+def _progress_lines(out: str) -> list[tuple[float, int]]:
+    """(percent, events) of each plain progress line (stdout is not a terminal under pytest)."""
+    lines = [line.split() for line in out.splitlines() if line.startswith("edmd:")]
+    return [(float(w[1].rstrip("%")), int(w[w.index("events") + 2])) for w in lines]
+
+
+def test_batch_progress_of_an_event_budget_counts_from_the_start_of_the_call(capsys):
+    sim = edmd.Simulation(edmd.maxwell_boltzmann(edmd.lattice(500, 0.3), 1.0, seed=2))
+    sim.run(until_time=0.5)
+    start = sim.events
+    sim.run(max_events=400_000, progress=True)
+    lines = _progress_lines(capsys.readouterr().out)
+    assert len(lines) >= 4 and lines[-1] == (100.0, start + 400_000)
+    for percent, events in lines:
+        assert percent == pytest.approx(100 * (events - start) / 400_000, abs=0.05)
+
+
+def test_batch_progress_of_a_wall_time_budget_is_the_wall_clock(capsys):
+    sim = edmd.Simulation(edmd.maxwell_boltzmann(edmd.lattice(500, 0.3), 1.0, seed=2))
+    sim.run(wall_time=1.5, progress=True)
+    percents = [p for p, _ in _progress_lines(capsys.readouterr().out)]
+    assert percents[-1] == 100.0 and len(percents) >= 3
+    assert all(p < 100.0 for p in percents[:-1]) and percents == sorted(percents)

@@ -289,7 +289,7 @@ class Simulation:
         target = math.inf if until_time is None else float(until_time)
         budget = math.inf if max_events is None else int(max_events)
         deadline = math.inf if wall_time is None else _time.perf_counter() + wall_time
-        bar = _Progress(self._time, target, budget) if progress else None
+        bar = _Progress(self._time, target, budget, self.events, wall_time) if progress else None
         started = _time.perf_counter()
         chunk = max(20 * self._engine.n, 100_000)
         try:
@@ -359,21 +359,21 @@ def _warn_viscoelastic_validity(state: State, rule, wall, gravity):
 
 
 class _Progress:
-    """Progress over simulation time (or events when no end time is set): a rich bar on a
-    terminal; elsewhere (batch logs) a plain line every :attr:`STEP` of the run or every
-    :attr:`EVERY` seconds, whichever comes first."""
+    """Progress over simulation time (or events when no end time is set, or wall-clock time when
+    only ``wall_time`` ends the run): a rich bar on a terminal; elsewhere (batch logs) a plain
+    line every :attr:`STEP` of the run or every :attr:`EVERY` seconds, whichever comes first."""
 
     STEP = 0.05
     EVERY = 60.0
 
-    def __init__(self, t0, target, budget, stream=None):
+    def __init__(self, t0, target, budget, events0, wall_time=None, stream=None):
         self.t0, self.target, self.budget = t0, target, budget
         self.stream = sys.stdout if stream is None else stream
-        self.total = (target - t0) if math.isfinite(target) else float(budget if math.isfinite(budget) else 1)
+        self.total = (target - t0) if math.isfinite(target) else float(budget if math.isfinite(budget) else wall_time or 1)
         self.start = _time.perf_counter()
-        self.events0 = None
+        self.events0 = events0
         self.bar = None if not self.stream.isatty() else self._rich_bar()
-        self._printed = (-1.0, -math.inf)  # fraction and clock of the last plain line
+        self._printed = (-1.0, -math.inf, -1)  # fraction, clock and events of the last plain line
 
     def _rich_bar(self):
         from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
@@ -390,20 +390,23 @@ class _Progress:
         bar.start()
         return bar
 
+    def _done(self, sim, elapsed: float) -> float:
+        if math.isfinite(self.target):
+            return sim.time - self.t0
+        return sim.events - self.events0 if math.isfinite(self.budget) else elapsed
+
     def update(self, sim, final: bool = False):
-        if self.events0 is None:
-            self.events0 = sim.events
         elapsed = max(_time.perf_counter() - self.start, 1e-9)
         rate = f"{(sim.events - self.events0) / elapsed:.3g} events/s"
-        done = (sim.time - self.t0) if math.isfinite(self.target) else sim.events - self.events0
+        done = self._done(sim, elapsed)
         if self.bar is not None:
             self.bar.update(self.task, completed=done, t=sim.time, rate=rate)
             return
         fraction = min(done / self.total, 1.0) if self.total > 0 else 1.0
-        last_fraction, last_clock = self._printed
-        if final or fraction >= last_fraction + self.STEP or elapsed >= last_clock + self.EVERY:
+        last_fraction, last_clock, last_events = self._printed
+        if (final and sim.events != last_events) or fraction >= last_fraction + self.STEP or elapsed >= last_clock + self.EVERY:
             print(f"edmd: {100 * fraction:5.1f}%  t = {sim.time:.6g}  events = {sim.events}  {rate}  {elapsed:.0f} s", file=self.stream, flush=True)
-            self._printed = (fraction, elapsed)
+            self._printed = (fraction, elapsed, sim.events)
 
     def close(self, sim):
         self.update(sim, final=True)
