@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import edmd
-from edmd.checkpoint import read_checkpoint
+from edmd.checkpoint import CheckpointError, read_checkpoint
 from edmd.config import ConfigError, parse_config
 from edmd.engine import CollapseError
 from edmd.memory import MemoryLimitError
@@ -182,6 +182,19 @@ def test_an_end_time_before_the_time_of_a_from_file_state_is_an_error(tmp_path):
         run_directory(cfg, tmp_path / "second")
     assert not (tmp_path / "second").exists()
     assert run_directory(small(until=4.0, system={"from_file": str(tmp_path / "first" / "trajectory.gsd")}), tmp_path / "third")["time"] == 4.0
+
+
+@pytest.mark.parametrize(
+    "sections, why",
+    [
+        ({"output": {"checkpoint": False}}, r"it ran with \[output\] checkpoint = false"),
+        ({"integrator": {"kind": "dem"}, "contact": {"model": "dashpot", "k": 1e4, "e_n": 0.8}}, "DEM runs write no checkpoint"),
+    ],
+)
+def test_a_run_without_checkpoints_says_why_it_cannot_be_continued(tmp_path, sections, why):
+    run_directory(small(until=0.2, **sections), tmp_path / "run")
+    with pytest.raises(CheckpointError, match=f"cannot be continued: {why}; start a new run .* --from .*trajectory.gsd"):
+        restart_directory(tmp_path / "run", until_time=1.0)
 
 
 def test_a_collapse_saves_the_state_and_the_summary(tmp_path):

@@ -318,9 +318,12 @@ def restart_directory(out: str | Path, until_time: float | None = None, progress
     if not out.is_dir():
         raise CheckpointError(f"no run directory {out}")
     path = out / "checkpoint.gsd"
+    disk_id, disk_cfg = _read_run_config(out / "config.toml")
+    if not path.is_file() and disk_cfg is not None and (disk_cfg.integrator.kind == "dem" or not disk_cfg.output.checkpoint):
+        why = "DEM runs write no checkpoint" if disk_cfg.integrator.kind == "dem" else "it ran with [output] checkpoint = false"
+        raise CheckpointError(f"{out} cannot be continued: {why}; start a new run from its last frame with `edmd run CONFIG --from {out / 'trajectory.gsd'}`")
     data = read_checkpoint(path)
     cfg = _stored_config(path, data.metadata.get("config"))
-    disk_id, disk_cfg = _read_run_config(out / "config.toml")
     _check_identity(out, data, disk_id)
     changes = {} if disk_cfg is None else config_changes(cfg, disk_cfg)
     fixed = [k for k in changes if k not in RESTART_MUTABLE]
