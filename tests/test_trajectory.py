@@ -169,3 +169,20 @@ def test_frames_selection_and_truncation(tmp_path):
     assert all(np.array_equal(a.velocity, b) for a, b in zip(iter_states(p), before))
     with pytest.raises(StateError, match="fewer than the 4"):
         truncate_frames(p, 4)
+
+
+def test_frames_appended_with_a_run_id_to_a_file_without_one_stay_readable(tmp_path):
+    # a run directory of an older edmd continued by this one: GSD reads a log entry a frame lacks
+    # from frame 0, and failed (KeyError) for the old frames when only the new ones had a run id
+    p = tmp_path / "t.gsd"
+    sim = edmd.Simulation(edmd.maxwell_boltzmann(edmd.lattice(32, 0.2), 1.0, seed=3))
+    old = sim.add(Trajectory(p, interval=0.5))
+    sim.run(until_time=1.0)
+    sim.close()
+    sim.observers.remove(old)
+    sim.add(Trajectory(p, interval=0.5, start=1.5, mode="a", run_id="abc"))
+    sim.run(until_time=2.0)
+    sim.close()
+    assert [s.time for s in iter_states(p)] == [0.0, 0.5, 1.0, 1.5, 2.0]
+    with gsd.hoomd.open(p) as f:
+        assert all("edmd/run_id" not in frame.log for frame in f)

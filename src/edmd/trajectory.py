@@ -289,7 +289,9 @@ class Trajectory(Observer):
     checkpoint it records how many frames the file holds; on restart the file is cut back to
     that many (frames written after the checkpoint by an interrupted run are dropped).
     ``run_id``, if given, is stored in every frame as ``log/edmd/run_id`` (see
-    :func:`trajectory_run_id`): ``edmd run`` marks its files with the run's identity.
+    :func:`trajectory_run_id`): ``edmd run`` marks its files with the run's identity. Frames
+    appended to a file whose frames have no run id get none either (GSD needs a log entry in
+    every frame or in none).
 
     Example:
         >>> import edmd, tempfile, os, gsd.hoomd
@@ -319,6 +321,10 @@ class Trajectory(Observer):
 
     def observe(self, sim: Simulation, state: State, totals: Totals):
         if self._file is None:
+            if self.mode == "a" and self.run_id is not None and frame_count(self.path) and trajectory_run_id(self.path) is None:
+                # frames without a run id (an older edmd): GSD reads a log entry missing from a
+                # frame from frame 0, so new entries in later frames would make the old ones unreadable
+                self.run_id = None
             self._file = gsd.hoomd.open(self.path, self.mode, precision="double")
         frame = state_to_frame(state, totals, pending=sim.engine.emd_rule is not None)
         if self.run_id is not None:
