@@ -70,6 +70,12 @@ def test_every_figure_of_a_run_is_a_run_file(tmp_path, collision):
     assert summary["plots"] and set(summary["plots"]) <= set(edmd.runner.RUN_FIGURES)
 
 
+def test_a_run_without_thermo_and_trajectory_ends_with_its_summary(tmp_path):
+    summary = run_directory(small(until=1.0, output={"thermo": False, "trajectory": False, "plots": True}), tmp_path / "run")
+    assert summary["time"] == 1.0 and "plots" not in summary
+    assert json.loads((tmp_path / "run" / "summary.json").read_text())["time"] == 1.0
+
+
 @pytest.mark.parametrize("stop", ["off_grid", "max_events"])
 def test_the_end_of_a_run_writes_a_final_frame_and_checkpoint(tmp_path, stop):
     cfg = small(until=0.5, interval=10.0) if stop == "off_grid" else small(until=50.0, interval=10.0, run={"max_events": 3000})
