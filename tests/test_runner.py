@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import edmd
+import edmd.plots
 from edmd.checkpoint import CheckpointError, read_checkpoint
 from edmd.config import ConfigError, parse_config
 from edmd.engine import CollapseError
@@ -73,6 +74,16 @@ def test_every_figure_of_a_run_is_a_run_file(tmp_path, collision):
 def test_a_run_without_thermo_and_trajectory_ends_with_its_summary(tmp_path):
     summary = run_directory(small(until=1.0, output={"thermo": False, "trajectory": False, "plots": True}), tmp_path / "run")
     assert summary["time"] == 1.0 and "plots" not in summary
+    assert json.loads((tmp_path / "run" / "summary.json").read_text())["time"] == 1.0
+
+
+def test_a_failure_of_the_figures_keeps_the_summary_of_the_run(tmp_path, monkeypatch):
+    def broken(run_dir):
+        raise RuntimeError("no figures today")
+
+    monkeypatch.setattr(edmd.plots, "plot_run", broken)
+    with pytest.raises(RuntimeError, match="no figures today"):
+        run_directory(small(until=1.0, output={"plots": True}), tmp_path / "run")
     assert json.loads((tmp_path / "run" / "summary.json").read_text())["time"] == 1.0
 
 

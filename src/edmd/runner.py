@@ -422,11 +422,12 @@ def _execute(sim: Simulation, cfg: Config, out: Path, progress: bool | None, ext
         write_text(out / "summary.json", json.dumps(summary, indent=2))
         saved = f"; the state at t = {sim.time!r} is in {out / 'error_state.gsd'}" if failure["error_state"] else ""
         raise type(failure_exc)(f"{failure_exc}{saved} (summary in {out / 'summary.json'})") from None
+    write_text(out / "summary.json", json.dumps(summary, indent=2))  # the run is complete, whatever the figures do
     if cfg.output.plots and (cfg.output.thermo or cfg.output.trajectory):  # figures need one of them
         from .plots import plot_run
 
         summary["plots"] = [p.name for p in plot_run(out)]
-    write_text(out / "summary.json", json.dumps(summary, indent=2))
+        write_text(out / "summary.json", json.dumps(summary, indent=2))
     return summary
 
 
