@@ -1,6 +1,7 @@
 """Run directories (edmd.runner): never lose or mix data, always leave the final state behind."""
 
 import json
+import math
 import shutil
 
 import numpy as np
@@ -108,6 +109,19 @@ def test_a_run_extended_after_an_off_grid_end_is_the_longer_run(tmp_path):
     run_directory(small(until=2.0, interval=0.5), long)
     for name in ("thermo.csv", "trajectory.gsd"):
         assert (short / name).read_bytes() == (long / name).read_bytes(), name
+
+
+def test_a_restart_after_max_events_runs_max_events_more(tmp_path):
+    # no checkpoint point between t = 0 and the end: the restart recomputes the first 3000 events
+    # from the point at t = 0, then runs 3000 new ones (before, it ended where the run had ended)
+    cfg = small(until=math.inf, interval=100.0, run={"max_events": 3000})
+    out, ref = tmp_path / "run", tmp_path / "ref"
+    first = run_directory(cfg, out)
+    assert first["events"] == 3000 and first["checkpoint_time"] == 0.0
+    assert restart_directory(out)["events"] == 6000
+    run_directory(small(until=math.inf, interval=100.0, run={"max_events": 6000}), ref)
+    for name in ("thermo.csv", "trajectory.gsd"):
+        assert (out / name).read_bytes() == (ref / name).read_bytes(), name
 
 
 def test_a_foreign_checkpoint_is_refused_and_nothing_changes(tmp_path):

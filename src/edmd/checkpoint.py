@@ -37,6 +37,7 @@ from pathlib import Path
 import gsd.hoomd
 import numpy as np
 
+from ._core import layout as L
 from ._io import atomic_path
 from .simulation import Observer, Simulation, Totals
 from .state import State, StateError
@@ -60,17 +61,24 @@ class CheckpointData:
         arrays: the engine's and observers' arrays by name (``counters``, ``accumulators``...).
         final: the state where the run ended, if it ended after the checkpoint point (``edmd
             run`` always saves its end); a restart continues from ``state`` all the same.
+        final_events: the event count at ``final`` (``None`` without it).
     """
 
     state: State
     meta: dict
     arrays: dict[str, np.ndarray]
     final: State | None = None
+    final_events: int | None = None
 
     @property
     def time(self) -> float:
         """Simulation time of the checkpoint."""
         return self.state.time
+
+    @property
+    def events(self) -> int:
+        """Events processed up to the checkpoint."""
+        return int(self.arrays["counters"][L.C_EVENTS])
 
     @property
     def metadata(self) -> dict:
@@ -156,7 +164,8 @@ def read_checkpoint(path: str | os.PathLike) -> CheckpointData:
         final = None if final_frame is None else frame_to_state(final_frame, check_overlaps=not soft)
     except StateError as exc:
         raise CheckpointError(f"{path}: the saved final state is invalid: {exc}") from None
-    return CheckpointData(state=state, meta=meta, arrays=arrays, final=final)
+    final_events = int(final_frame.log["events"][0]) if final_frame is not None and "events" in final_frame.log else None
+    return CheckpointData(state=state, meta=meta, arrays=arrays, final=final, final_events=final_events)
 
 
 def save_final_state(path: str | os.PathLike, state: State, totals: Totals):

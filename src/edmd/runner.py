@@ -308,7 +308,9 @@ def restart_directory(out: str | Path, until_time: float | None = None, progress
     """Continue the run in directory ``out`` from its checkpoint, bit for bit (optionally to a new end time).
 
     Rows and frames the interrupted run wrote after its last checkpoint are dropped and
-    written again, identically. Budgets (``run.max_events``, ``run.wall_time``) apply afresh.
+    written again, identically. Budgets apply afresh: ``run.wall_time`` from the checkpoint
+    point, ``run.max_events`` from where the run ended (the events recomputed up to there do
+    not count, so a run of ``max_events`` steps always advances).
     The checkpoint, ``config.toml`` and ``thermo.csv`` must belong to the same run. Edits to
     ``config.toml`` since the run started are taken if they are in :data:`RESTART_MUTABLE`
     (and recorded in ``config.toml`` and ``summary.json``); any other edit is an error naming
@@ -347,7 +349,8 @@ def restart_directory(out: str | Path, until_time: float | None = None, progress
     notes = [f"continued at t = {data.time!r}: {k} {a!r} -> {b!r}" for k, (a, b) in changes.items()]
     previous = _previous_notes(out / "config.toml")
     write_text(out / "config.toml", config_text(cfg, run_id, previous + notes))
-    summary = _execute(sim, cfg, out, progress, extra={"restart_changes": {k: list(v) for k, v in changes.items()}} if changes else None)
+    replayed = 0 if data.final_events is None else data.final_events - data.events  # recomputed, not new
+    summary = _execute(sim, cfg, out, progress, {"restart_changes": {k: list(v) for k, v in changes.items()}} if changes else None, replayed)
     return summary
 
 
@@ -403,12 +406,15 @@ def _save_error(sim: Simulation, out: Path, exc: EngineError) -> dict:
     return {"status": "failed", "error": f"{type(exc).__name__}: {exc}", "error_time": sim.time, "error_state": "error_state.gsd" if state else None}
 
 
-def _execute(sim: Simulation, cfg: Config, out: Path, progress: bool | None, extra: dict | None = None) -> dict:
+def _execute(sim: Simulation, cfg: Config, out: Path, progress: bool | None, extra: dict | None = None, replayed: int = 0) -> dict:
+    """Run ``sim`` to the end of ``cfg`` and write the summary; ``replayed``: events a restart
+    recomputes between its checkpoint point and where the run ended (not counted in ``max_events``)."""
     show = cfg.run.progress if progress is None else progress
     until = max(cfg.run.until_time, sim.time)
+    budget = None if cfg.run.max_events is None else cfg.run.max_events + replayed
     failure = None
     try:
-        sim.run(until_time=None if math.isinf(until) else until, max_events=cfg.run.max_events, wall_time=cfg.run.wall_time, progress=show)
+        sim.run(until_time=None if math.isinf(until) else until, max_events=budget, wall_time=cfg.run.wall_time, progress=show)
         _write_final(sim)
     except EngineError as exc:
         failure = _save_error(sim, out, exc)
