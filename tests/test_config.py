@@ -133,6 +133,7 @@ def test_emdstar_config_errors_name_the_problem(collision, message):
         ({"system": {"packing_fraction": "0.3"}}, "system.packing_fraction"),
         ({"run": {"progress": "yes"}}, "run.progress"),
         ({"system": {"n": 10.0}}, "system.n"),
+        ({"system": {"dim": 2.0}}, "system.dim"),
     ],
 )
 def test_strings_and_floats_are_not_converted_silently(data, key):
@@ -186,3 +187,8 @@ def test_engine_debug_reaches_the_engine():
 
     cfg = parse_config({"system": {"dim": 2, "n": 64, "packing_fraction": 0.3}, "engine": {"debug": True}})
     assert build_simulation(cfg).engine.options.debug is True
+
+
+def test_a_float_for_a_whole_number_gets_a_hint():
+    with pytest.raises(ConfigError, match=r"run\.max_events: .*write it without a decimal point or exponent \(1000000\)"):
+        parse_config({"run": {"max_events": 1e6}})

@@ -252,6 +252,14 @@ def test_a_collapse_saves_the_state_and_the_summary(tmp_path):
     assert state.position[0, 2] == pytest.approx(-h, abs=1e-9)
 
 
+def test_a_successful_restart_removes_the_error_state_of_a_failed_attempt(tmp_path):
+    out = tmp_path / "run"
+    run_directory(small(until=1.0), out)
+    (out / "error_state.gsd").write_bytes(b"from a failed attempt")
+    restart_directory(out, until_time=2.0)
+    assert not (out / "error_state.gsd").exists()
+
+
 def test_closed_boxes_report_wall_pressures(tmp_path):
     cfg = small(until=2.0, walls={"axes": ["y"]})
     summary = run_directory(cfg, tmp_path / "run")

@@ -15,7 +15,7 @@ import typing
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from . import collide
 
@@ -69,6 +69,13 @@ class SystemConfig(_Section):
     gravity: list[float] | None = Field(None, description="uniform acceleration, d components")
     from_file: str | None = Field(None, description="start from a frame of this GSD file (other keys then ignored)")
     from_frame: int = Field(-1, description="frame of from_file (negative counts from the end)")
+
+    @field_validator("dim", mode="before")
+    @classmethod
+    def _whole_dim(cls, value):
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ValueError("dim must be the whole number 2 or 3")
+        return value
 
     @model_validator(mode="after")
     def _consistent(self):
@@ -390,6 +397,8 @@ def format_errors(exc: ValidationError, prefix: tuple = ()) -> str:
             lines.append(f"{key}: unknown key{extra}")
         else:
             msg = err["msg"].removeprefix("Value error, ")
+            if err["type"] == "int_type" and isinstance(err.get("input"), float) and err["input"].is_integer():
+                msg += f"; write it without a decimal point or exponent ({int(err['input'])})"
             lines.append(f"{key}: {msg} (got {err.get('input')!r})" if "input" in err and not isinstance(err["input"], dict) else f"{key}: {msg}")
     return "invalid configuration:\n  " + "\n  ".join(dict.fromkeys(lines))
 

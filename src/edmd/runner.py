@@ -428,6 +428,7 @@ def _execute(sim: Simulation, cfg: Config, out: Path, progress: bool | None, ext
         write_text(out / "summary.json", json.dumps(summary, indent=2))
         saved = f"; the state at t = {sim.time!r} is in {out / 'error_state.gsd'}" if failure["error_state"] else ""
         raise type(failure_exc)(f"{failure_exc}{saved} (summary in {out / 'summary.json'})") from None
+    (out / "error_state.gsd").unlink(missing_ok=True)  # a failure of an earlier attempt is over
     write_text(out / "summary.json", json.dumps(summary, indent=2))  # the run is complete, whatever the figures do
     if cfg.output.plots and (cfg.output.thermo or cfg.output.trajectory):  # figures need one of them
         from .plots import plot_run
