@@ -95,6 +95,8 @@ class Engine:
         self.rule = collide.Inelastic(1.0) if rule is None else rule
         self.wall = collide.default_wall(self.rule) if wall is None else wall
         self.emd_rule = self.rule if isinstance(self.rule, EMDStar) else None
+        #: ``None`` compiles the loop variant without eMD* (see :func:`run_events`)
+        self.emd_on = None if self.emd_rule is None else 1
         collide.pack(self.rule, self.wall, self.fp, self.ip)
         self.etab = collide.viscoelastic_table()[0]
         self.ip[L.IP_WALLS] = sum(1 << k for k in range(self.dim) if not self.periodic[k])
@@ -247,7 +249,7 @@ class Engine:
         """Compile the event loop now (a call that processes no event), so that timings exclude it."""
         run_events(
             self.part, self.ev, self.q, self.grid, self.lists, self.geo, self.fp, self.ip,
-            self.acc, self.cnt, self.clog, self.cbuf, self.etab, self.emd, -math.inf, 0,
+            self.acc, self.cnt, self.clog, self.cbuf, self.etab, self.emd, self.emd_on, -math.inf, 0,
         )  # fmt: skip
 
     def advance(self, t_stop: float, max_events: int | float = math.inf) -> int:
@@ -267,7 +269,7 @@ class Engine:
             before = int(self.cnt[L.C_EVENTS])
             status = run_events(
                 self.part, self.ev, self.q, self.grid, self.lists, geo, self.fp, self.ip,
-                self.acc, self.cnt, self.clog, self.cbuf, self.etab, self.emd, t_stop - self.t_origin, chunk,
+                self.acc, self.cnt, self.clog, self.cbuf, self.etab, self.emd, self.emd_on, t_stop - self.t_origin, chunk,
             )  # fmt: skip
             budget -= int(self.cnt[L.C_EVENTS]) - before
             if status == L.ST_LOG_FULL:

@@ -197,6 +197,14 @@ def _repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb)
 
 
 @jit
+def _repredict_called(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb):
+    """:func:`_repredict` compiled once and called, not inlined: for the events other than binary
+    collisions (walls, B events, exception b), whose inlined copies would multiply the loop's
+    compile time (each copy carries the pair and aux predictors and the calendar update)."""
+    _repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb)
+
+
+@jit
 def _cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf):
     """Move ``i`` into the neighbouring cell (by direction, never by flooring) and scan the new layer."""
     gi = grid[3]
@@ -302,7 +310,7 @@ def _finish_contact(p, i, j, t, P, count, ev, q, grid, lists, geo, mode, fp, ip,
     execute_b(p, t, P, count, emd, geo)
     if ip[L.IP_EMD_COMM] and other != i and other != j and pj[other] == p:
         execute_b(other, t, P, count, emd, geo)
-        _repredict(other, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd[1])
+        _repredict_called(np.int64(other), t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd[1])
 
 
 @jit
@@ -369,13 +377,15 @@ def _emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt,
 
 
 @jit
-def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, etab, emd, t_stop, max_events):
+def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, etab, emd, emd_on, t_stop, max_events):
     """Process events in time order until ``t_stop`` (exclusive) or ``max_events``.
 
     Returns a status code of :mod:`.layout` (``ST_*``); ``acc[A_NOW]`` holds the time of the
     last processed event. The state is consistent at every return. ``cbuf`` is an int32 scratch
     array of 27 cells (the loop allocates nothing); ``emd`` holds the pending eMD* contacts
-    and the matrix-of-restitution table (:mod:`.emdstar`).
+    and the matrix-of-restitution table (:mod:`.emdstar`). ``emd_on`` is ``None`` without eMD*:
+    Numba then prunes the eMD* branches at compile time, so runs without soft contacts never
+    compile the soft-contact code into their loop (a separately cached variant).
     """
     P, mass, omega, inertia, image, count, tlast = part
     ptb = emd[1]
@@ -383,7 +393,6 @@ def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, etab
     mode = ip[L.IP_MODE]
     log_cap = ip[L.IP_LOG_CAP]
     total_mass = fp[L.FP_MTOT]
-    use_emd = ip[L.IP_EMD] != 0
     done = 0
     while True:
         i = queue_top(q)
@@ -408,10 +417,10 @@ def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, etab
             cnt[L.C_AUX] += 1
             if kind == L.AUX_B:
                 execute_b(i, t, P, count, emd, geo)
-                _repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb)
+                _repredict_called(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb)
                 continue
             if kind >= L.AUX_WALL:
-                if is_pending(emd, i):  # a wall is a third body too: end the soft contact first
+                if emd_on is not None and is_pending(emd, i):  # a wall is a third body too: end the soft contact first
                     cnt[L.C_EMD_EXC_B] += 1
                     _finish_contact(i, i, -1, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd)
                 advance(P, i, t, geo)
@@ -419,7 +428,7 @@ def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, etab
                 collide_wall(t, P, mass, omega, inertia, tlast, i, (kind - L.AUX_WALL) >> 1, (kind - L.AUX_WALL) & 1, fp, ip, etab, acc)
                 count[i] += 1
                 cnt[L.C_WALL] += 1
-                _repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb)
+                _repredict_called(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb)
                 continue
             if kind == L.AUX_SHELL:
                 advance(P, i, t, geo)
@@ -442,14 +451,14 @@ def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, etab
         if log_cap > 0 and cnt[L.C_LOG] >= log_cap:
             cnt[L.C_EVENTS] -= 1
             return L.ST_LOG_FULL
-        if ip[L.IP_DEBUG] and not _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf, use_emd):
+        if ip[L.IP_DEBUG] and not _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf, emd_on is not None):
             return L.ST_OVERLAP
         advance(P, i, t, geo)
         advance(P, j, t, geo)
         integrate_kinetic(acc, t, geo, total_mass)
         outcome = 2
         vn = vt = 0.0
-        if use_emd:
+        if emd_on is not None:
             outcome = _emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt, cbuf, emd)
             if outcome < 0:
                 return L.ST_LIST_FULL
