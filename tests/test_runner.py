@@ -281,3 +281,21 @@ def test_a_large_trajectory_is_announced(tmp_path, monkeypatch):
     monkeypatch.setattr(edmd.runner, "TRAJECTORY_WARN_BYTES", 64 * 100 * 4)
     with pytest.warns(TrajectorySizeWarning, match=r"about .* GB \(6 frames of 64 particles\)"):
         run_directory(small(until=2.0), tmp_path / "run")
+
+
+def test_a_checkpoint_whose_config_newer_rules_reject_is_explained(tmp_path):
+    import gsd.hoomd
+
+    out = tmp_path / "run"
+    run_directory(small(until=1.0, interval=0.5), out)
+    path = out / "checkpoint.gsd"
+    with gsd.hoomd.open(path) as f:
+        frames = list(f)
+    meta = json.loads(bytes(frames[0].log["checkpoint/meta"]).decode())
+    meta["metadata"]["config"] = meta["metadata"]["config"].replace("seed = 1", 'seed = "1"')  # once accepted
+    frames[0].log["checkpoint/meta"] = np.frombuffer(json.dumps(meta).encode(), np.uint8)
+    with gsd.hoomd.open(path, "w", precision="double") as f:
+        for frame in frames:
+            f.append(frame)
+    with pytest.raises(edmd.checkpoint.CheckpointError, match=r"(?s)not valid for this edmd .*system\.seed.*--from trajectory\.gsd"):
+        restart_directory(out, until_time=2.0)

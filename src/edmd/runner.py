@@ -226,9 +226,17 @@ def _stored_config(path: Path, text: str | None) -> Config:
     if text is None:
         raise CheckpointError(f"{path} was not written by `edmd run` (no configuration inside)")
     try:
-        return parse_config(tomllib.loads(text))
-    except (tomllib.TOMLDecodeError, ConfigError) as exc:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
         raise CheckpointError(f"{path}: the stored configuration is damaged: {exc}") from None
+    try:
+        return parse_config(data)
+    except ConfigError as exc:
+        raise CheckpointError(
+            f"{path}: the stored configuration is not valid for this edmd (an older one accepted it): {exc}\n"
+            "The run cannot be continued as it is; start a new run from its last frame with "
+            "`edmd run FIXED.toml --from trajectory.gsd`"
+        ) from None
 
 
 def restart_config(out: str | Path) -> Config:
