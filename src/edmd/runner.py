@@ -186,7 +186,7 @@ def run_directory(cfg: Config, out: str | Path, progress: bool | None = None, *,
             f"run.until_time = {cfg.run.until_time!r} is not after the initial time {sim.time!r} (frame "
             f"{cfg.system.from_frame} of {cfg.system.from_file}): until_time is absolute, set it later than {sim.time!r}"
         )
-    _warn_trajectory_size(cfg, sim.state.n, sim.time)
+    _warn_trajectory_size(cfg, sim.engine.n, sim.time)  # not sim.state: a full snapshot copy
     _claim(out, force=True)
     run_id = run_identity(cfg, sim.state)
     write_text(out / "config.toml", config_text(cfg, run_id))
