@@ -33,7 +33,7 @@ class Pair:
         self.cnt = np.zeros(L.N_COUNTERS, np.int64)
 
     def collide(self, t=0.0):
-        return collide_pair(t, self.P, self.mass, self.omega, self.inertia, self.tlast, 0, 1, GEO, self.fp, self.ip, self.etab, self.acc, self.cnt)
+        return collide_pair(t, self.P, self.mass, self.omega, self.inertia, self.tlast, 0, 1, GEO, self.fp, self.ip, self.etab, self.acc, self.cnt, self.ip[L.IP_TANGENT], self.ip[L.IP_NORMAL])
 
     def wall(self, axis, face, t=0.0):
         collide_wall(t, self.P, self.mass, self.omega, self.inertia, self.tlast, 0, axis, face, self.fp, self.ip, self.etab, self.acc)

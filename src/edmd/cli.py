@@ -1,9 +1,10 @@
-"""Command line: ``edmd run``, ``edmd init``, ``edmd sweep``, ``edmd export``, ``edmd plot``, ``edmd movie``, ``edmd tables``."""
+"""Command line: ``edmd run``, ``edmd init``, ``edmd sweep``, ``edmd export``, ``edmd plot``, ``edmd movie``, ``edmd tables``, ``edmd compile``."""
 
 from __future__ import annotations
 
 import collections
 import contextlib
+import logging
 import warnings
 from pathlib import Path
 
@@ -68,9 +69,7 @@ def run(
     from .engine import EngineError
     from .runner import restart_directory, run_directory
 
-    if not any((Path(__file__).parent / "_core" / "__pycache__").glob("loop.run_events-*.nbi")):
-        console.print("[dim]first run on this machine: compiling the core (a few minutes, cached afterwards)[/]")
-
+    _announce_compiles()
     try:
         with warnings.catch_warnings():
             warnings.showwarning = _warn  # restored on exit (the CLI may run inside another program)
@@ -150,6 +149,41 @@ def movie(
     except (StateError, ValueError, OSError) as exc:
         _fail(str(exc))
     console.print(f"wrote {path}")
+
+
+class _CompileNotice(logging.Handler):
+    """Prints the engine's notice that a run compiles its loop variant (``edmd.compile`` logger)."""
+
+    def emit(self, record):
+        console.print(f"[dim]{escape(record.getMessage())}[/]", soft_wrap=True)
+
+
+def _announce_compiles():
+    logger = logging.getLogger("edmd.compile")
+    logger.setLevel(logging.INFO)
+    if not any(isinstance(h, _CompileNotice) for h in logger.handlers):
+        logger.addHandler(_CompileNotice())
+
+
+@app.command("compile")
+def compile_(
+    features: list[str] = typer.Argument(None, help="Feature sets, e.g. plain walls+rough emdstar (default: plain)."),
+    all_: bool = typer.Option(False, "--all", help="Every feature set (about 20 variants, a few minutes)."),
+):
+    """Compile the event loop ahead of time for these feature sets (for a cluster image, sweep workers or CI).
+
+    Features: plain, or walls, rough, viscoelastic, soft, emdstar joined by '+'.
+    """
+    from .precompile import FeatureError, all_feature_sets, compile_features, parse_features
+
+    try:
+        sets = all_feature_sets() if all_ else [parse_features(f) for f in (features or ["plain"])]
+    except FeatureError as exc:
+        _fail(str(exc))
+    for found in sets:
+        with console.status(f"compiling {'+'.join(sorted(found)) or 'plain'} ..."):
+            name, seconds, cached = compile_features(found)
+        console.print(f"{name}: {'already cached' if cached else 'compiled'} ({seconds:.1f} s)")
 
 
 @app.command()

@@ -1,4 +1,4 @@
-"""The engine: owns the compiled-core arrays of one system and drives :func:`run_events`.
+"""The engine: owns the compiled-core arrays of one system and drives its event loop (:func:`~edmd._core.loop.loop_variant`).
 
 Users normally go through :class:`edmd.Simulation`; the engine is the thin layer that turns a
 :class:`~edmd.state.State` into arrays, runs the event loop in segments and answers with
@@ -12,19 +12,24 @@ several :meth:`advance` calls is bit-for-bit the run done in one.
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
 
 import numpy as np
 
 from ._core import layout as L
 from ._core.cells import new_grid
-from ._core.loop import run_events, setup_events
+from ._core.jit import in_disk_cache
+from ._core.loop import loop_variant
 from ._core.queue import calendar_shape, new_queue, queue_build
 from ._core.snapshot import stream_all
 from . import collide
 from .emdstar import EMDStar, emd_bundle
 from .memory import grid_shape
 from .state import State, StateError
+
+#: ``INFO`` when a run must compile its loop variant first (the CLI shows it)
+log = logging.getLogger("edmd.compile")
 
 
 @dataclasses.dataclass
@@ -95,8 +100,6 @@ class Engine:
         self.rule = collide.Inelastic(1.0) if rule is None else rule
         self.wall = collide.default_wall(self.rule) if wall is None else wall
         self.emd_rule = self.rule if isinstance(self.rule, EMDStar) else None
-        #: ``None`` compiles the loop variant without eMD* (see :func:`run_events`)
-        self.emd_on = None if self.emd_rule is None else 1
         collide.pack(self.rule, self.wall, self.fp, self.ip)
         self.etab = collide.viscoelastic_table()[0]
         self.ip[L.IP_WALLS] = sum(1 << k for k in range(self.dim) if not self.periodic[k])
@@ -111,6 +114,13 @@ class Engine:
         self.collision_log: list[np.ndarray] | None = None
         self.list_capacity = 0
         self._choose_neighbours(state)
+        ip = self.ip
+        #: the event loop compiled for this system's features only (see :func:`loop_variant`)
+        self.loop = loop_variant(
+            ip[L.IP_WALLS] != 0, self.emd_rule is not None, ip[L.IP_TANGENT] != L.TANGENT_SMOOTH, ip[L.IP_NORMAL]
+        )
+        if not self.loop.run_events.signatures and not in_disk_cache(self.loop.run_events):
+            log.info("compiling the event loop for %s runs (once; cached afterwards, see `edmd compile`)", self.loop.name)
         self.load(state)
 
     # ------------------------------------------------------------------ set-up
@@ -223,7 +233,7 @@ class Engine:
             cap = max(self.list_capacity, 1) if self.mode == "list" else 1
             nl = n if self.mode == "list" else 1
             self.lists = (np.zeros((nl, cap), np.int32), np.zeros(nl, np.int32), np.zeros((nl, 3)))
-            if setup_events(self.part, self.ev, self.grid, self.lists, geo, self.fp, self.ip, self.cbuf, self.emd, 0.0):
+            if self.loop.setup_events(self.part, self.ev, self.grid, self.lists, geo, self.fp, self.ip, self.cbuf, self.emd, 0.0):
                 break
             self.list_capacity = int(self.list_capacity * 1.5) + 4
         if self.mode == "list":
@@ -247,9 +257,9 @@ class Engine:
 
     def compile(self):
         """Compile the event loop now (a call that processes no event), so that timings exclude it."""
-        run_events(
+        self.loop.run_events(
             self.part, self.ev, self.q, self.grid, self.lists, self.geo, self.fp, self.ip,
-            self.acc, self.cnt, self.clog, self.cbuf, self.etab, self.emd, self.emd_on, -math.inf, 0,
+            self.acc, self.cnt, self.clog, self.cbuf, self.etab, self.emd, -math.inf, 0,
         )  # fmt: skip
 
     def advance(self, t_stop: float, max_events: int | float = math.inf) -> int:
@@ -267,9 +277,9 @@ class Engine:
                 self.resync()
             chunk = int(min(budget, interval - (int(self.cnt[L.C_EVENTS]) - self.events_at_sync)))
             before = int(self.cnt[L.C_EVENTS])
-            status = run_events(
+            status = self.loop.run_events(
                 self.part, self.ev, self.q, self.grid, self.lists, geo, self.fp, self.ip,
-                self.acc, self.cnt, self.clog, self.cbuf, self.etab, self.emd, self.emd_on, t_stop - self.t_origin, chunk,
+                self.acc, self.cnt, self.clog, self.cbuf, self.etab, self.emd, t_stop - self.t_origin, chunk,
             )  # fmt: skip
             budget -= int(self.cnt[L.C_EVENTS]) - before
             if status == L.ST_LOG_FULL:

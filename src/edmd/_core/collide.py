@@ -24,6 +24,7 @@ memory) is only kept when the TC model is on.
 import math
 
 from . import layout as L
+from .layout import NORMAL_CONST, NORMAL_SOFT, TANGENT_COULOMB, TANGENT_SMOOTH
 from .contact import MODEL_HERTZ, contact_scales
 from .jit import hot
 from .predict import wrap3
@@ -66,9 +67,9 @@ def normal_restitution(law, e_const, vn, mu_red, r_eff, fp, ip, etab):
     with constants ``fp[FP_SOFT_A/B]`` (Hertz as above, dashpot :math:`e^{-\zeta_d\omega_0t_c}` of §2.2.1),
     the instantaneous rule of eMD* fallbacks and walls (physics.md §4.8).
     """
-    if law == L.NORMAL_CONST:
+    if law == NORMAL_CONST:
         return e_const
-    if law == L.NORMAL_SOFT:
+    if law == NORMAL_SOFT:
         model = ip[L.IP_EMD_MODEL]
         c, _lam, _ts, _ls = contact_scales(model, fp[L.FP_SOFT_A], fp[L.FP_SOFT_B], mu_red, r_eff, 1.0, vn)
         if model == MODEL_HERTZ:
@@ -88,7 +89,7 @@ def impulse(nx, ny, nz, gx, gy, gz, wx, wy, wz, inv_mu, inv_mt, e, beta, mu_c, t
     """
     gn = gx * nx + gy * ny + gz * nz
     jn = -(1.0 + e) * gn / inv_mu
-    if tangent == L.TANGENT_SMOOTH:
+    if tangent == TANGENT_SMOOTH:
         tx, ty, tz = gx - gn * nx, gy - gn * ny, gz - gn * nz
         return jn * nx, jn * ny, jn * nz, -gn, math.sqrt(tx * tx + ty * ty + tz * tz)
     cx = gx - (wy * nz - wz * ny)
@@ -97,7 +98,7 @@ def impulse(nx, ny, nz, gx, gy, gz, wx, wy, wz, inv_mu, inv_mt, e, beta, mu_c, t
     tx, ty, tz = cx - gn * nx, cy - gn * ny, cz - gn * nz
     vt = math.sqrt(tx * tx + ty * ty + tz * tz)
     b = beta
-    if tangent == L.TANGENT_COULOMB and vt > 0.0:
+    if tangent == TANGENT_COULOMB and vt > 0.0:
         b = min(beta, -1.0 + mu_c * (1.0 + e) * (inv_mt / inv_mu) * (-gn) / vt)
     k = -(1.0 + b) / inv_mt
     return jn * nx + k * tx, jn * ny + k * ty, jn * nz + k * tz, -gn, vt
@@ -134,15 +135,17 @@ def _tc_elastic(t, tlast, i, j, fp, ip):
 
 
 @hot
-def collide_pair(t, P, mass, omega, inertia, tlast, i, j, geo, fp, ip, etab, acc, cnt):
+def collide_pair(t, P, mass, omega, inertia, tlast, i, j, geo, fp, ip, etab, acc, cnt, tangent, normal):
     """Collide ``i`` and ``j`` (streamed to the contact time ``t``). Returns ``(v_n, v_t)``.
+
+    ``tangent`` and ``normal`` are the pair laws (``ip[IP_TANGENT]``, ``ip[IP_NORMAL]``), passed
+    apart so that a loop variant giving them as compile-time constants compiles only its laws.
 
     Adds :math:`\\mathbf r_{ij}\\cdot\\mathbf J` to the virial, the kinetic-energy change to
     ``acc[A_KE]`` (translational) and the energy lost to ``acc[A_DISSIPATED]``.
     """
     nx, ny, nz, r = contact_normal(P, i, j, geo)
-    tangent = ip[L.IP_TANGENT]
-    spin = tangent != L.TANGENT_SMOOTH
+    spin = tangent != TANGENT_SMOOTH
     gx = P[i, L.VX] - P[j, L.VX]
     gy = P[i, L.VY] - P[j, L.VY]
     gz = P[i, L.VZ] - P[j, L.VZ]
@@ -165,7 +168,7 @@ def collide_pair(t, P, mass, omega, inertia, tlast, i, j, geo, fp, ip, etab, acc
         beta = -1.0
         cnt[L.C_TC_ELASTIC] += 1
     else:
-        e = normal_restitution(ip[L.IP_NORMAL], fp[L.FP_EN], -gn, 1.0 / inv_mu, ri * rj / (ri + rj), fp, ip, etab)
+        e = normal_restitution(normal, fp[L.FP_EN], -gn, 1.0 / inv_mu, ri * rj / (ri + rj), fp, ip, etab)
     jx, jy, jz, vn, vt = impulse(nx, ny, nz, gx, gy, gz, wx, wy, wz, inv_mu, inv_mt, e, beta, fp[L.FP_MU], tangent)
     if spin:
         k0 = _energy(P, mass, omega, inertia, i, False) + _energy(P, mass, omega, inertia, j, False)
@@ -208,7 +211,7 @@ def collide_wall(t, P, mass, omega, inertia, tlast, i, axis, face, fp, ip, etab,
     if gn >= 0.0:
         return
     tangent = ip[L.IP_WALL_TANGENT]
-    spin = tangent != L.TANGENT_SMOOTH
+    spin = tangent != TANGENT_SMOOTH
     mi, ri = mass[i], P[i, L.R]
     inv_mu = 1.0 / mi
     inv_mt = inv_mu + ri * ri / inertia[i] if spin else inv_mu

@@ -21,3 +21,18 @@ except Exception:  # pragma: no cover - depends on the Numba version
 jit = njit(cache=True, error_model="numpy", **_NO_RC)
 hot = njit(cache=True, inline="always", error_model="numpy", **_NO_RC)
 jit_alloc = njit(cache=True, error_model="numpy")
+
+
+def in_disk_cache(dispatcher) -> bool:
+    """Whether Numba's on-disk cache holds compiled code of ``dispatcher`` (any signature).
+
+    Closure values are part of the cache key, so for a loop variant this tells whether that
+    feature set was compiled before. ``False`` whenever it cannot tell (a Numba without this
+    private cache interface, an unreadable cache): the caller then expects to compile.
+    """
+    try:
+        cache = dispatcher._cache
+        tail = cache._index_key(None, dispatcher.targetctx.codegen())[1:]
+        return any(key[1:] == tail for key in cache._cache_file._load_index())
+    except Exception:  # pragma: no cover - depends on Numba's private cache layout
+        return False

@@ -17,10 +17,13 @@ Array bundles (tuples, no objects): ``part = (P, mass, omega, inertia, image, co
 :mod:`.cells`), ``lists`` (see :mod:`.nblist`), ``geo`` (floats, see :func:`.layout.make_geo`).
 """
 
+from typing import Callable, NamedTuple
+
 import numpy as np
 from .jit import hot, jit
 
 from . import layout as L
+from .layout import NB_LIST, NORMAL_SOFT, NORMAL_VISCO, TANGENT_SMOOTH
 from .cells import cell_block, cell_insert, cell_of_point, cell_remove, crossing_time
 from .collide import collide_pair, collide_wall
 from .emdstar import contact_map, execute_b, is_pending, relocation_blocked
@@ -68,7 +71,7 @@ def _scan_cells(i, t, P, count, ev, grid, geo, cbuf, axis, step):
 @hot
 def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf):
     """Full re-prediction of the earliest contact of ``i`` (neighbour list or 3^d cells)."""
-    if mode == L.NB_LIST:
+    if mode == NB_LIST:
         nbl, nbl_n = lists[0], lists[1]
         xi, yi, zi, vxi, vyi, vzi = flight(P, i, t, geo)
         ri = P[i, L.R]
@@ -81,7 +84,7 @@ def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf):
             return
     ev[0][i] = INF
     ev[1][i] = -1
-    if mode != L.NB_LIST:
+    if mode != NB_LIST:
         _scan_cells(i, t, P, count, ev, grid, geo, cbuf, -1, 0)
 
 
@@ -122,19 +125,20 @@ def _wall_event(i, t, P, geo, walls, best, kind):
 
 
 @hot
-def predict_aux(i, t, P, ev, grid, lists, geo, mode, fp, ip, ptb):
-    """Earliest single-particle event of ``i``: shell exit (lists) or cell crossing (cells), a wall, or its eMD* B event (``ptb``)."""
-    if mode == L.NB_LIST:
-        ev[3][i] = shell_exit_time(P, i, t, lists, geo, fp[L.FP_SKIN])
+def predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb):
+    """Earliest single-particle event of ``i``: shell exit (lists) or cell crossing (cells), a wall
+    (when ``walls``; ``wall_axes`` has bit ``k`` set for axis ``k``), or its eMD* B event (``ptb``,
+    when ``emd_on``)."""
+    if mode == NB_LIST:
+        ev[3][i] = shell_exit_time(P, i, t, lists, geo, skin)
         ev[4][i] = L.AUX_SHELL
     else:
         _crossing_event(i, t, P, ev, grid, geo)
-    walls = ip[L.IP_WALLS]
     if walls:
-        best, kind = _wall_event(i, t, P, geo, walls, ev[3][i] - t, ev[4][i])
+        best, kind = _wall_event(i, t, P, geo, wall_axes, ev[3][i] - t, ev[4][i])
         ev[3][i] = t + best
         ev[4][i] = kind
-    if ip[L.IP_EMD] and ptb[i] < ev[3][i]:  # (hard spheres never touch ptb: no cache miss)
+    if emd_on and ptb[i] < ev[3][i]:  # (hard spheres never touch ptb: no cache miss)
         ev[3][i] = ptb[i]
         ev[4][i] = L.AUX_B
 
@@ -173,7 +177,7 @@ def _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf, contact
     if contact_only:
         return True
     for p in (np.int64(i), np.int64(j)):
-        if mode == L.NB_LIST:
+        if mode == NB_LIST:
             for s in range(lists[1][p]):
                 if _bad_contact(p, lists[0][p, s], t, P, geo, tol, acc, cnt, False):
                     return False
@@ -188,20 +192,16 @@ def _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf, contact
     return True
 
 
-@hot
-def _repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb):
-    """Both candidate events of ``i`` after its flight changed, and its calendar key."""
-    predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
-    predict_aux(i, t, P, ev, grid, lists, geo, mode, fp, ip, ptb)
-    _requeue(q, ev, i)
-
-
 @jit
-def _repredict_called(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb):
-    """:func:`_repredict` compiled once and called, not inlined: for the events other than binary
-    collisions (walls, B events, exception b), whose inlined copies would multiply the loop's
-    compile time (each copy carries the pair and aux predictors and the calendar update)."""
-    _repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb)
+def _repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb):
+    """Both candidate events of ``i`` after its flight changed, and its calendar key.
+
+    Compiled once and called (eMD* exception b); the loop inlines the same steps at its one
+    re-prediction site.
+    """
+    predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
+    predict_aux(i, t, P, ev, grid, lists, geo, mode, ip[L.IP_WALLS] != 0, ip[L.IP_WALLS], ip[L.IP_EMD] != 0, fp[L.FP_SKIN], ptb)
+    _requeue(q, ev, i)
 
 
 @jit
@@ -284,7 +284,7 @@ def _rebin(p, t, P, image, grid, lists, geo, mode, fp, cbuf):
     shell. Returns ``False`` if a list ran out of capacity.
     """
     _wrap_into_box(P, image, p, geo)
-    if mode != L.NB_LIST:
+    if mode != NB_LIST:
         c = cell_of_point(P[p, L.X], P[p, L.Y], P[p, L.Z], geo, grid)
         if c != grid[2][p]:
             cell_remove(grid, p)
@@ -310,7 +310,7 @@ def _finish_contact(p, i, j, t, P, count, ev, q, grid, lists, geo, mode, fp, ip,
     execute_b(p, t, P, count, emd, geo)
     if ip[L.IP_EMD_COMM] and other != i and other != j and pj[other] == p:
         execute_b(other, t, P, count, emd, geo)
-        _repredict_called(np.int64(other), t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd[1])
+        _repredict(np.int64(other), t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd[1])
 
 
 @jit
@@ -376,124 +376,198 @@ def _emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt,
     return 1
 
 
-@jit
-def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, etab, emd, emd_on, t_stop, max_events):
-    """Process events in time order until ``t_stop`` (exclusive) or ``max_events``.
+class Loop(NamedTuple):
+    """One compiled variant of the event loop and its set-up (see :func:`loop_variant`)."""
 
-    Returns a status code of :mod:`.layout` (``ST_*``); ``acc[A_NOW]`` holds the time of the
-    last processed event. The state is consistent at every return. ``cbuf`` is an int32 scratch
-    array of 27 cells (the loop allocates nothing); ``emd`` holds the pending eMD* contacts
-    and the matrix-of-restitution table (:mod:`.emdstar`). ``emd_on`` is ``None`` without eMD*:
-    Numba then prunes the eMD* branches at compile time, so runs without soft contacts never
-    compile the soft-contact code into their loop (a separately cached variant).
+    run_events: Callable
+    setup_events: Callable
+    name: str
+
+
+def variant_name(walls: bool, emd_on: bool, rough: bool, normal: int) -> str:
+    """Readable name of a feature set, e.g. ``"walls+rough+viscoelastic"`` (``"plain"``: none).
+
+    Example:
+        >>> from edmd._core import layout as L
+        >>> variant_name(True, False, True, L.NORMAL_VISCO)
+        'walls+rough+viscoelastic'
     """
-    P, mass, omega, inertia, image, count, tlast = part
-    ptb = emd[1]
-    key = q[0]
-    mode = ip[L.IP_MODE]
-    log_cap = ip[L.IP_LOG_CAP]
-    total_mass = fp[L.FP_MTOT]
-    done = 0
-    while True:
-        i = queue_top(q)
-        if i < 0:
-            return L.ST_IDLE
-        t = key[i]
-        if t >= t_stop:
-            return L.ST_TIME
-        if done >= max_events:
-            return L.ST_EVENTS
-        if t > acc[L.A_NOW]:
-            cnt[L.C_ZENO_RUN] = 0
-        else:
-            cnt[L.C_ZENO_RUN] += 1
-            if cnt[L.C_ZENO_RUN] > ip[L.IP_MAXSTALL]:
-                return L.ST_STALL
-        done += 1
-        cnt[L.C_EVENTS] += 1
-        acc[L.A_NOW] = t
-        if ev[3][i] <= ev[0][i]:
-            kind = ev[4][i]
-            cnt[L.C_AUX] += 1
-            if kind == L.AUX_B:
-                execute_b(i, t, P, count, emd, geo)
-                _repredict_called(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb)
-                continue
-            if kind >= L.AUX_WALL:
-                if emd_on is not None and is_pending(emd, i):  # a wall is a third body too: end the soft contact first
-                    cnt[L.C_EMD_EXC_B] += 1
-                    _finish_contact(i, i, -1, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd)
-                advance(P, i, t, geo)
-                integrate_kinetic(acc, t, geo, total_mass)
-                collide_wall(t, P, mass, omega, inertia, tlast, i, (kind - L.AUX_WALL) >> 1, (kind - L.AUX_WALL) & 1, fp, ip, etab, acc)
-                count[i] += 1
-                cnt[L.C_WALL] += 1
-                _repredict_called(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb)
-                continue
-            if kind == L.AUX_SHELL:
-                advance(P, i, t, geo)
-                _wrap_into_box(P, image, i, geo)
-                cnt[L.C_REBUILD] += 1
-                if not rebuild_list(i, P, grid, lists, geo, fp[L.FP_SKIN], cbuf):
-                    return L.ST_LIST_FULL
-                predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
+    parts = [name for name, on in (("walls", walls), ("emdstar", emd_on), ("rough", rough)) if on]
+    law = {NORMAL_VISCO: "viscoelastic", NORMAL_SOFT: "soft"}.get(int(normal))
+    if law is not None and not emd_on:  # eMD*'s instantaneous fallbacks always use the soft law
+        parts.append(law)
+    return "+".join(parts) or "plain"
+
+
+_VARIANTS: dict[tuple, Loop] = {}
+_SETUPS: dict[tuple, Callable] = {}
+
+
+def loop_variant(walls: bool, emd_on: bool, rough: bool, normal: int) -> Loop:
+    """The event loop specialised to the physics of a run, compiled (and cached on disk) on first use.
+
+    The features are compile-time constants of the loop (closure variables): Numba prunes the
+    branches they decide before type inference, through the inlined helpers too, so a run
+    compiles only the collision code of its own rules, and each feature set is a separate entry
+    of the on-disk cache (closure values are part of the cache key). The neighbour structure and
+    debug mode stay run-time choices: their code is in functions compiled once and called.
+
+    Args:
+        walls: some axis is closed by walls (which ones: ``ip[IP_WALLS]``); without, no wall code.
+        emd_on: eMD* soft contacts (physics.md §4.8) for particle pairs.
+        rough: pair collisions have a tangential law (``ip[IP_TANGENT]``); without, the smooth
+            rule only (no spin code).
+        normal: the normal law of pair collisions (``NORMAL_*``).
+
+    Example:
+        >>> from edmd._core import layout as L
+        >>> loop = loop_variant(False, False, False, L.NORMAL_CONST)
+        >>> loop is loop_variant(False, False, False, L.NORMAL_CONST)
+        True
+    """
+    key = (bool(walls), bool(emd_on), bool(rough), int(normal))
+    if key not in _VARIANTS:
+        if key[:2] not in _SETUPS:  # the set-up depends on the single-particle events only
+            _SETUPS[key[:2]] = _make_setup(*key[:2])
+        _VARIANTS[key] = Loop(_make_loop(*key), _SETUPS[key[:2]], variant_name(*key))
+    return _VARIANTS[key]
+
+
+def _make_loop(walls, emd_on, rough, normal):
+    @jit
+    def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, etab, emd, t_stop, max_events):
+        """Process events in time order until ``t_stop`` (exclusive) or ``max_events``.
+
+        Returns a status code of :mod:`.layout` (``ST_*``); ``acc[A_NOW]`` holds the time of the
+        last processed event. The state is consistent at every return. ``cbuf`` is an int32 scratch
+        array of 27 cells (the loop allocates nothing); ``emd`` holds the pending eMD* contacts
+        and the matrix-of-restitution table (:mod:`.emdstar`).
+        """
+        P, mass, omega, inertia, image, count, tlast = part
+        ptb = emd[1]
+        key = q[0]
+        mode = ip[L.IP_MODE]
+        log_cap = ip[L.IP_LOG_CAP]
+        total_mass = fp[L.FP_MTOT]
+        skin = fp[L.FP_SKIN]
+        wall_axes = ip[L.IP_WALLS]
+        done = 0
+        while True:
+            i = queue_top(q)
+            if i < 0:
+                return L.ST_IDLE
+            t = key[i]
+            if t >= t_stop:
+                return L.ST_TIME
+            if done >= max_events:
+                return L.ST_EVENTS
+            if t > acc[L.A_NOW]:
+                cnt[L.C_ZENO_RUN] = 0
             else:
-                _cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf)
-            predict_aux(i, t, P, ev, grid, lists, geo, mode, fp, ip, ptb)
-            _requeue(q, ev, i)
-            continue
-        j = ev[1][i]
-        if count[j] != ev[2][i]:
-            cnt[L.C_STALE] += 1
-            predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
-            _requeue(q, ev, i)
-            continue
-        if log_cap > 0 and cnt[L.C_LOG] >= log_cap:
-            cnt[L.C_EVENTS] -= 1
-            return L.ST_LOG_FULL
-        if ip[L.IP_DEBUG] and not _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf, emd_on is not None):
-            return L.ST_OVERLAP
-        advance(P, i, t, geo)
-        advance(P, j, t, geo)
-        integrate_kinetic(acc, t, geo, total_mass)
-        outcome = 2
-        vn = vt = 0.0
-        if emd_on is not None:
-            outcome = _emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt, cbuf, emd)
-            if outcome < 0:
-                return L.ST_LIST_FULL
-            if outcome == 1:
-                vn, vt = acc[L.A_EMD_VN], acc[L.A_EMD_VT]
-            elif outcome == 2:
-                cnt[L.C_EMD_FALLBACK] += 1
-        if outcome == 2:
-            vn, vt = collide_pair(t, P, mass, omega, inertia, tlast, i, j, geo, fp, ip, etab, acc, cnt)
-        count[i] += 1
-        count[j] += 1
-        if outcome != 0:
-            cnt[L.C_COLL] += 1
-            _log_collision(clog, cnt, log_cap, t, i, j, vn, vt)
-        _repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb)
-        _repredict(j, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb)
+                cnt[L.C_ZENO_RUN] += 1
+                if cnt[L.C_ZENO_RUN] > ip[L.IP_MAXSTALL]:
+                    return L.ST_STALL
+            done += 1
+            cnt[L.C_EVENTS] += 1
+            acc[L.A_NOW] = t
+            j = i  # the second particle to re-predict (a binary collision only)
+            nrep = 1
+            pair = True  # re-predict the pair event
+            aux = True  # re-predict the single-particle event
+            if ev[3][i] <= ev[0][i]:
+                kind = ev[4][i]
+                cnt[L.C_AUX] += 1
+                if emd_on and kind == L.AUX_B:
+                    execute_b(i, t, P, count, emd, geo)
+                elif walls and kind >= L.AUX_WALL:
+                    if emd_on and is_pending(emd, i):  # a wall is a third body too: end the soft contact first
+                        cnt[L.C_EMD_EXC_B] += 1
+                        _finish_contact(i, i, -1, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd)
+                    advance(P, i, t, geo)
+                    integrate_kinetic(acc, t, geo, total_mass)
+                    collide_wall(t, P, mass, omega, inertia, tlast, i, (kind - L.AUX_WALL) >> 1, (kind - L.AUX_WALL) & 1, fp, ip, etab, acc)
+                    count[i] += 1
+                    cnt[L.C_WALL] += 1
+                elif mode == NB_LIST:  # the particle left the shell of its neighbour list
+                    advance(P, i, t, geo)
+                    _wrap_into_box(P, image, i, geo)
+                    cnt[L.C_REBUILD] += 1
+                    if not rebuild_list(i, P, grid, lists, geo, skin, cbuf):
+                        return L.ST_LIST_FULL
+                else:
+                    _cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf)
+                    pair = False  # the crossing scanned the new layer of cells
+            else:
+                j = ev[1][i]
+                if count[j] != ev[2][i]:
+                    cnt[L.C_STALE] += 1
+                    j = i
+                    aux = False
+                else:
+                    if log_cap > 0 and cnt[L.C_LOG] >= log_cap:
+                        cnt[L.C_EVENTS] -= 1
+                        return L.ST_LOG_FULL
+                    if ip[L.IP_DEBUG] and not _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf, emd_on):
+                        return L.ST_OVERLAP
+                    advance(P, i, t, geo)
+                    advance(P, j, t, geo)
+                    integrate_kinetic(acc, t, geo, total_mass)
+                    outcome = 2
+                    vn = vt = 0.0
+                    if emd_on:
+                        outcome = _emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt, cbuf, emd)
+                        if outcome < 0:
+                            return L.ST_LIST_FULL
+                        if outcome == 1:
+                            vn, vt = acc[L.A_EMD_VN], acc[L.A_EMD_VT]
+                        elif outcome == 2:
+                            cnt[L.C_EMD_FALLBACK] += 1
+                    if outcome == 2 and rough:
+                        vn, vt = collide_pair(t, P, mass, omega, inertia, tlast, i, j, geo, fp, ip, etab, acc, cnt, ip[L.IP_TANGENT], normal)
+                    elif outcome == 2:
+                        vn, vt = collide_pair(t, P, mass, omega, inertia, tlast, i, j, geo, fp, ip, etab, acc, cnt, TANGENT_SMOOTH, normal)
+                    count[i] += 1
+                    count[j] += 1
+                    if outcome != 0:
+                        cnt[L.C_COLL] += 1
+                        _log_collision(clog, cnt, log_cap, t, i, j, vn, vt)
+                    nrep = 2
+            # One re-prediction site for every event kind: each predictor and the calendar update
+            # are inlined into the loop once (compile time grows with the inlined copies).
+            for s in range(nrep):
+                p = i if s == 0 else j
+                if pair:
+                    predict_pair(p, t, P, count, ev, grid, lists, geo, mode, cbuf)
+                if aux:
+                    predict_aux(p, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb)
+                _requeue(q, ev, p)
+
+    return run_events
 
 
-@jit
-def setup_events(part, ev, grid, lists, geo, fp, ip, cbuf, emd, t):
-    """Bin every particle (positions or list centres) and predict all events at time ``t``.
+def _make_setup(walls, emd_on):
+    @jit
+    def setup_events(part, ev, grid, lists, geo, fp, ip, cbuf, emd, t):
+        """Bin every particle (positions or list centres) and predict all events at time ``t``.
 
-    Returns ``False`` if a neighbour list ran out of capacity.
-    """
-    P, mass, omega, inertia, image, count, tlast = part
-    mode = ip[L.IP_MODE]
-    n = P.shape[0]
-    if mode == L.NB_LIST:
-        if not build_lists(P, grid, lists, geo, fp[L.FP_SKIN], cbuf):
-            return False
-    else:
-        grid[0][:] = -1
+        Returns ``False`` if a neighbour list ran out of capacity.
+        """
+        P = part[0]
+        count = part[5]
+        mode = ip[L.IP_MODE]
+        n = P.shape[0]
+        skin = fp[L.FP_SKIN]
+        wall_axes = ip[L.IP_WALLS]
+        if mode == NB_LIST:
+            if not build_lists(P, grid, lists, geo, skin, cbuf):
+                return False
+        else:
+            grid[0][:] = -1
+            for i in range(n):
+                cell_insert(grid, i, cell_of_point(P[i, L.X], P[i, L.Y], P[i, L.Z], geo, grid))
         for i in range(n):
-            cell_insert(grid, i, cell_of_point(P[i, L.X], P[i, L.Y], P[i, L.Z], geo, grid))
-    for i in range(n):
-        predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
-        predict_aux(i, t, P, ev, grid, lists, geo, mode, fp, ip, emd[1])
-    return True
+            predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
+            predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, emd[1])
+        return True
+
+    return setup_events
