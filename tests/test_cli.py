@@ -150,3 +150,30 @@ def test_cli_announces_a_large_trajectory(tmp_path, monkeypatch):
     r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "run")])
     assert r.exit_code == 0 and "warning: trajectory.gsd will take about" in r.output
     assert "TrajectorySizeWarning" not in r.output  # one readable line, not Python's warning format
+
+
+def test_compile_warms_the_loop_of_a_feature_set():
+    r = runner.invoke(app, ["compile", "plain", "walls"])
+    assert r.exit_code == 0, r.output
+    assert "plain:" in r.output and "walls:" in r.output
+    r = runner.invoke(app, ["compile", "walls"])  # now cached
+    assert "walls: already cached" in r.output
+
+
+def test_compile_names_a_bad_feature():
+    r = runner.invoke(app, ["compile", "walls+ruogh"])
+    assert r.exit_code == 2 and "unknown feature 'ruogh'" in r.output
+    r = runner.invoke(app, ["compile", "emdstar+rough"])
+    assert r.exit_code == 2 and "cannot be combined" in r.output
+
+
+def test_run_says_when_it_compiles_its_loop(tmp_path, monkeypatch):
+    import edmd.engine
+
+    monkeypatch.setattr(edmd.engine, "in_disk_cache", lambda dispatcher: False)  # as on a fresh install
+    monkeypatch.setattr(edmd._core.loop, "_VARIANTS", {})  # and in a fresh process
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(SMALL.format(dim=2))
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "run"), "--no-progress"])
+    assert r.exit_code == 0, r.output
+    assert "compiling the event loop for plain runs" in r.output

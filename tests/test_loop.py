@@ -72,3 +72,8 @@ def test_engine_picks_the_variant_of_its_features(dim, rule, walls, neighbours, 
 
 def test_in_disk_cache_is_false_for_a_feature_set_never_compiled():
     assert not in_disk_cache(loop_variant(True, False, True, 97).run_events)
+
+
+def test_the_core_compiles_without_reference_counting():
+    # the probe of _core/jit.py finds Numba's private `_nrt` option (4.7x faster calendar)
+    assert loop_variant(*PLAIN).run_events.targetoptions.get("_nrt") is False

@@ -12,11 +12,20 @@
 
 from numba import njit
 
-try:  # ``_nrt`` is a Numba compiler flag (private); fall back gracefully if it disappears
-    njit(_nrt=False)(lambda: None)
-    _NO_RC = {"_nrt": False}
-except Exception:  # pragma: no cover - depends on the Numba version
-    _NO_RC = {}
+def _no_refcount_option() -> dict:
+    """``{"_nrt": False}`` if this Numba has the (private) option, else ``{}`` (reference counting kept).
+
+    Decorating is lazy (options are checked at the first compile), so the probe asks the CPU
+    target's option table instead of decorating a dummy function.
+    """
+    try:
+        from numba.core.cpu import CPUTargetOptions
+    except ImportError:  # pragma: no cover - depends on the Numba version
+        return {}
+    return {"_nrt": False} if hasattr(CPUTargetOptions, "_nrt") else {}
+
+
+_NO_RC = _no_refcount_option()
 
 jit = njit(cache=True, error_model="numpy", **_NO_RC)
 hot = njit(cache=True, inline="always", error_model="numpy", **_NO_RC)
