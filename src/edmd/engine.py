@@ -117,7 +117,7 @@ class Engine:
         ip = self.ip
         #: the event loop compiled for this system's features only (see :func:`loop_variant`)
         self.loop = loop_variant(
-            ip[L.IP_WALLS] != 0, self.emd_rule is not None, ip[L.IP_TANGENT] != L.TANGENT_SMOOTH, ip[L.IP_NORMAL]
+            ip[L.IP_WALLS] != 0, self.emd_rule is not None, ip[L.IP_TANGENT] != L.TANGENT_SMOOTH, ip[L.IP_NORMAL], self.options.debug
         )
         if not self.loop.run_events.signatures and not in_disk_cache(self.loop.run_events):
             log.info("compiling the event loop for %s runs (once; cached afterwards, see `edmd compile`)", self.loop.name)

@@ -6,8 +6,8 @@ eMD*, a tangential law and the normal law. The first run of each feature set pay
 sweep's workers or CI can warm the cache for the feature sets they will use.
 
 Features are written as ``+``-joined names: ``plain``, ``walls``, ``rough``, ``viscoelastic``,
-``soft`` (the central restitution of a soft contact law used instantaneously) and ``emdstar``,
-e.g. ``walls+rough+viscoelastic``.
+``soft`` (the central restitution of a soft contact law used instantaneously), ``emdstar`` and
+``debug`` (the per-collision checks of ``[engine] debug``), e.g. ``walls+rough+viscoelastic``.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from ._core import layout as L
 from ._core.jit import in_disk_cache
 from ._core.loop import loop_variant
 
-FEATURES = ("walls", "rough", "viscoelastic", "soft", "emdstar")
+FEATURES = ("walls", "rough", "viscoelastic", "soft", "emdstar", "debug")
 
 
 class FeatureError(ValueError):
@@ -52,7 +52,7 @@ def parse_features(spec: str) -> frozenset[str]:
 
 
 def all_feature_sets() -> list[frozenset[str]]:
-    """Every feature set a run can have (the variants ``edmd compile --all`` builds)."""
+    """Every feature set a run can have, less debug mode (the variants ``edmd compile --all`` builds)."""
     sets = []
     for walls in ((), ("walls",)):
         for normal in ((), ("viscoelastic",), ("soft",)):
@@ -68,7 +68,7 @@ def _variant(features: frozenset[str]):
         normal = L.NORMAL_VISCO
     elif "soft" in features or "emdstar" in features:
         normal = L.NORMAL_SOFT
-    return loop_variant("walls" in features, "emdstar" in features, "rough" in features, normal)
+    return loop_variant("walls" in features, "emdstar" in features, "rough" in features, normal, "debug" in features)
 
 
 def _example(features: frozenset[str]):
@@ -91,7 +91,7 @@ def _example(features: frozenset[str]):
     state = edmd.maxwell_boltzmann(edmd.lattice(32, 0.1, periodic=periodic), 1.0, seed=1)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # e.g. the viscoelastic validity warning of this toy system
-        return edmd.Simulation(state, collision=rule)
+        return edmd.Simulation(state, collision=rule, engine={"debug": "debug" in features})
 
 
 def compile_features(features: frozenset[str]) -> tuple[str, float, bool]:

@@ -384,7 +384,7 @@ class Loop(NamedTuple):
     name: str
 
 
-def variant_name(walls: bool, emd_on: bool, rough: bool, normal: int) -> str:
+def variant_name(walls: bool, emd_on: bool, rough: bool, normal: int, debug: bool = False) -> str:
     """Readable name of a feature set, e.g. ``"walls+rough+viscoelastic"`` (``"plain"``: none).
 
     Example:
@@ -396,6 +396,8 @@ def variant_name(walls: bool, emd_on: bool, rough: bool, normal: int) -> str:
     law = {NORMAL_VISCO: "viscoelastic", NORMAL_SOFT: "soft"}.get(int(normal))
     if law is not None and not emd_on:  # eMD*'s instantaneous fallbacks always use the soft law
         parts.append(law)
+    if debug:
+        parts.append("debug")
     return "+".join(parts) or "plain"
 
 
@@ -403,14 +405,14 @@ _VARIANTS: dict[tuple, Loop] = {}
 _SETUPS: dict[tuple, Callable] = {}
 
 
-def loop_variant(walls: bool, emd_on: bool, rough: bool, normal: int) -> Loop:
+def loop_variant(walls: bool, emd_on: bool, rough: bool, normal: int, debug: bool = False) -> Loop:
     """The event loop specialised to the physics of a run, compiled (and cached on disk) on first use.
 
     The features are compile-time constants of the loop (closure variables): Numba prunes the
     branches they decide before type inference, through the inlined helpers too, so a run
     compiles only the collision code of its own rules, and each feature set is a separate entry
-    of the on-disk cache (closure values are part of the cache key). The neighbour structure and
-    debug mode stay run-time choices: their code is in functions compiled once and called.
+    of the on-disk cache (closure values are part of the cache key). The neighbour structure stays
+    a run-time choice: its code is in functions compiled once and called.
 
     Args:
         walls: some axis is closed by walls (which ones: ``ip[IP_WALLS]``); without, no wall code.
@@ -418,6 +420,7 @@ def loop_variant(walls: bool, emd_on: bool, rough: bool, normal: int) -> Loop:
         rough: pair collisions have a tangential law (``ip[IP_TANGENT]``); without, the smooth
             rule only (no spin code).
         normal: the normal law of pair collisions (``NORMAL_*``).
+        debug: the per-collision checks of debug mode (``_debug_check``).
 
     Example:
         >>> from edmd._core import layout as L
@@ -425,7 +428,7 @@ def loop_variant(walls: bool, emd_on: bool, rough: bool, normal: int) -> Loop:
         >>> loop is loop_variant(False, False, False, L.NORMAL_CONST)
         True
     """
-    key = (bool(walls), bool(emd_on), bool(rough), int(normal))
+    key = (bool(walls), bool(emd_on), bool(rough), int(normal), bool(debug))
     if key not in _VARIANTS:
         if key[:2] not in _SETUPS:  # the set-up depends on the single-particle events only
             _SETUPS[key[:2]] = _make_setup(*key[:2])
@@ -433,7 +436,7 @@ def loop_variant(walls: bool, emd_on: bool, rough: bool, normal: int) -> Loop:
     return _VARIANTS[key]
 
 
-def _make_loop(walls, emd_on, rough, normal):
+def _make_loop(walls, emd_on, rough, normal, debug):
     @jit
     def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, etab, emd, t_stop, max_events):
         """Process events in time order until ``t_stop`` (exclusive) or ``max_events``.
@@ -507,7 +510,7 @@ def _make_loop(walls, emd_on, rough, normal):
                     if log_cap > 0 and cnt[L.C_LOG] >= log_cap:
                         cnt[L.C_EVENTS] -= 1
                         return L.ST_LOG_FULL
-                    if ip[L.IP_DEBUG] and not _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf, emd_on):
+                    if debug and not _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf, emd_on):
                         return L.ST_OVERLAP
                     advance(P, i, t, geo)
                     advance(P, j, t, geo)
