@@ -5,12 +5,16 @@
 the run. A change of the core's data layout must migrate such files, not reject them.
 """
 
+import json
 from pathlib import Path
 
 import gsd.hoomd
 import numpy as np
+import pytest
 
-from edmd.checkpoint import Checkpoint, load_checkpoint, read_checkpoint
+from edmd import Simulation, lattice, maxwell_boltzmann
+from edmd._core import layout as L
+from edmd.checkpoint import Checkpoint, CheckpointError, load_checkpoint, read_checkpoint
 from edmd.trajectory import read_state
 
 DATA = Path(__file__).parent / "data"
@@ -26,3 +30,75 @@ def test_a_format_1_checkpoint_continues_bit_for_bit(tmp_path):
     with gsd.hoomd.open(DATA / "checkpoint_v1_continued.gsd") as f:
         log = f[0].log
     assert sim.collisions == int(log["collisions"][0]) > 100 and sim.events == int(log["events"][0])
+
+
+def _edit_checkpoint(src, dst, edit):
+    """Copy checkpoint ``src`` to ``dst`` with ``edit(meta, log)`` applied to its first frame."""
+    with gsd.hoomd.open(src) as f:
+        frame = f[0]
+    meta = json.loads(bytes(np.asarray(frame.log["checkpoint/meta"], np.uint8)).decode())
+    edit(meta, frame.log)
+    frame.log["checkpoint/meta"] = np.frombuffer(json.dumps(meta).encode(), np.uint8)
+    with gsd.hoomd.open(dst, "w", precision="double") as out:
+        out.append(frame)
+
+
+def _continued(path, tmp_path):
+    sim = load_checkpoint(path, [Checkpoint(tmp_path / "again.gsd", interval=1.0)])
+    sim.run(until_time=2.0)
+    return sim.state
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_a_checkpoint_of_an_older_layout_loads_by_name(tmp_path, dim):
+    """An entry added to the layout since the file was written loads as 0 (its "off" value)."""
+    sim = Simulation(maxwell_boltzmann(lattice(64 if dim == 3 else 36, 0.2, dim=dim), 1.0, seed=5))
+    sim.add(Checkpoint(tmp_path / "c.gsd", interval=1.0))
+    sim.run(until_time=2.0)
+    reference = sim.state
+
+    def drop_last_counter_and_reorder_fp(meta, log):
+        # an older edmd: one counter fewer (this one's default is 0) and fp stored in another order
+        meta["layout"]["counters"] = meta["layout"]["counters"][:-1]
+        log["checkpoint/counters"] = np.asarray(log["checkpoint/counters"])[:-1]
+        meta["layout"]["fp"] = meta["layout"]["fp"][::-1]
+        log["checkpoint/fp"] = np.asarray(log["checkpoint/fp"])[::-1].copy()
+
+    _edit_checkpoint(tmp_path / "c.gsd", tmp_path / "old.gsd", drop_last_counter_and_reorder_fp)
+    assert L.COUNTERS[-1] == "emd_fallbacks"  # (the dropped counter is 0 in this run)
+    again = _continued(tmp_path / "old.gsd", tmp_path)
+    assert np.array_equal(again.position, reference.position) and np.array_equal(again.velocity, reference.velocity)
+
+
+def test_an_unknown_entry_of_a_newer_edmd_is_refused_unless_zero(tmp_path):
+    sim = Simulation(maxwell_boltzmann(lattice(64, 0.2), 1.0, seed=5))
+    sim.add(Checkpoint(tmp_path / "c.gsd", interval=1.0))
+    sim.run(until_time=1.0)
+
+    def add_parameter(value):
+        def edit(meta, log):
+            meta["layout"]["ip"] = [*meta["layout"]["ip"], "future_feature"]
+            log["checkpoint/ip"] = np.append(np.asarray(log["checkpoint/ip"]), value)
+
+        return edit
+
+    _edit_checkpoint(tmp_path / "c.gsd", tmp_path / "off.gsd", add_parameter(0))
+    assert load_checkpoint(tmp_path / "off.gsd", [Checkpoint(tmp_path / "x.gsd", interval=1.0)]).time == 1.0
+    _edit_checkpoint(tmp_path / "c.gsd", tmp_path / "on.gsd", add_parameter(3))
+    with pytest.raises(CheckpointError, match="newer edmd: ip entry 'future_feature' = 3"):
+        load_checkpoint(tmp_path / "on.gsd", [Checkpoint(tmp_path / "x.gsd", interval=1.0)])
+
+
+def test_a_changed_parameter_is_named(tmp_path):
+    sim = Simulation(maxwell_boltzmann(lattice(64, 0.2), 1.0, seed=5))
+    sim.add(Checkpoint(tmp_path / "c.gsd", interval=1.0))
+    sim.run(until_time=1.0)
+
+    def other_skin(meta, log):
+        fp = np.asarray(log["checkpoint/fp"]).copy()
+        fp[L.FP_SKIN] *= 2
+        log["checkpoint/fp"] = fp
+
+    _edit_checkpoint(tmp_path / "c.gsd", tmp_path / "skin.gsd", other_skin)
+    with pytest.raises(CheckpointError, match=r"differ from the saved ones \(skin\)"):
+        load_checkpoint(tmp_path / "skin.gsd", [Checkpoint(tmp_path / "x.gsd", interval=1.0)])

@@ -19,8 +19,10 @@ has passed since the last write (the first grid point and the final one are alwa
 File layout (GSD 5, one frame, double precision): the State as in a trajectory frame
 (:func:`edmd.trajectory.state_to_frame`), plus under ``log/checkpoint/``: ``counters``,
 ``accumulators``, ``list_capacity``, ``fp``/``ip`` (physics parameters, checked on load), the
-JSON document ``meta`` (format version, the Simulation's constructor parameters, wall-clock
-seconds, observers' schedules and scalars, user metadata such as the run's configuration) and
+JSON document ``meta`` (format version, the names of the entries of ``counters``,
+``accumulators``, ``fp`` and ``ip`` (``layout``), the Simulation's constructor parameters,
+wall-clock seconds, observers' schedules and scalars, user metadata such as the run's
+configuration) and
 the observers' arrays ``observer/<k>/<name>``. It is written to a temporary file and renamed,
 so a checkpoint on disk is always complete.
 """
@@ -43,7 +45,9 @@ from .simulation import Observer, Simulation, Totals
 from .state import State, StateError
 from .trajectory import frame_to_state, state_to_frame
 
-FORMAT = 1
+FORMAT = 2
+#: formats this edmd reads: format 1 stored the engine arrays without names (see :func:`engine_arrays`)
+READABLE_FORMATS = (1, 2)
 _PREFIX = "checkpoint/"
 
 
@@ -113,6 +117,7 @@ def save_checkpoint(sim: Simulation, path: str | os.PathLike, metadata: dict | N
             log[f"{_PREFIX}observer/{k}/{name}"] = arr
     meta = {
         "format": FORMAT,
+        "layout": {key: list(names) for key, names in L.LAYOUT.items()},
         "params": sim.params,
         "wall_seconds": sim.wall_seconds,
         "observers": observers,
@@ -152,8 +157,10 @@ def read_checkpoint(path: str | os.PathLike) -> CheckpointData:
         meta = json.loads(bytes(np.asarray(log[_PREFIX + "meta"], np.uint8)).decode())
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise CheckpointError(f"{path}: damaged checkpoint metadata ({exc})") from None
-    if meta.get("format") != FORMAT:
-        raise CheckpointError(f"{path} has checkpoint format {meta.get('format')!r}; this edmd reads format {FORMAT}")
+    if meta.get("format") not in READABLE_FORMATS:
+        raise CheckpointError(
+            f"{path} has checkpoint format {meta.get('format')!r}; this edmd reads formats {', '.join(map(str, READABLE_FORMATS))}"
+        )
     try:
         soft = meta.get("params", {}).get("collision", {}).get("type") == "EMDStar"  # pairs overlap after contacts
         state = frame_to_state(frame, check_overlaps=not soft)
@@ -208,15 +215,51 @@ def load_checkpoint(path: str | os.PathLike, observers=(), data: CheckpointData 
         sim = Simulation(data.state, **data.meta["params"])
     except (TypeError, ValueError) as exc:
         raise CheckpointError(f"{path}: cannot rebuild the simulation from the saved parameters: {exc}") from None
-    a = data.arrays
-    sim.engine.restore(data.state, a["counters"], a["accumulators"], int(a["list_capacity"][0]))
-    for name in ("fp", "ip"):
-        if not np.array_equal(getattr(sim.engine, name), a[name]):
-            raise CheckpointError(f"{path}: the rebuilt engine's physics parameters ({name}) differ from the saved ones")
+    a = engine_arrays(data, path)
+    sim.engine.restore(data.state, a["counters"], a["accumulators"], int(data.arrays["list_capacity"][0]))
+    for name, names in (("fp", L.FPARAMS), ("ip", L.IPARAMS)):
+        differ = [n for n, new, old in zip(names, getattr(sim.engine, name), a[name]) if not new == old]
+        if differ:
+            raise CheckpointError(f"{path}: the rebuilt engine's physics parameters differ from the saved ones ({', '.join(differ)})")
     sim._time = data.state.time
     sim.wall_seconds = float(data.meta.get("wall_seconds", 0.0))
     _restore_observers(sim, path, data, list(observers))
     return sim
+
+
+def engine_arrays(data: CheckpointData, path="checkpoint") -> dict[str, np.ndarray]:
+    """The engine arrays of a checkpoint (``counters``, ``accumulators``, ``fp``, ``ip``) in this
+    edmd's layout, matched by name (:data:`edmd._core.layout.LAYOUT`).
+
+    An entry this edmd has but the file lacks (a parameter or counter added since) loads as 0,
+    its "off" value; an entry of a newer edmd that this one does not know is an error unless it
+    is 0. Format-1 files stored no names: theirs are :data:`~edmd._core.layout.FORMAT1_LAYOUT`.
+
+    Example:
+        >>> import edmd, tempfile, os
+        >>> path = os.path.join(tempfile.mkdtemp(), "c.gsd")
+        >>> sim = edmd.Simulation(edmd.maxwell_boltzmann(edmd.lattice(108, 0.2), 1.0, seed=3))
+        >>> _ = sim.add(Checkpoint(path, interval=1.0))
+        >>> sim.run(until_time=1.0)
+        >>> int(engine_arrays(read_checkpoint(path))["counters"][L.C_COLL]) == sim.collisions
+        True
+    """
+    saved_layout = L.FORMAT1_LAYOUT if data.meta.get("format") == 1 else data.meta.get("layout")
+    if not isinstance(saved_layout, dict) or any(not isinstance(saved_layout.get(k), list | tuple) for k in L.LAYOUT):
+        raise CheckpointError(f"{path}: damaged checkpoint metadata (no names of the engine arrays)")
+    out = {}
+    for key, names in L.LAYOUT.items():
+        values, saved = np.asarray(data.arrays[key]), saved_layout[key]
+        if values.ndim != 1 or len(values) < len(saved):
+            raise CheckpointError(f"{path}: damaged checkpoint: {key} has {values.size} entries for {len(saved)} names")
+        here = {name: k for k, name in enumerate(names)}
+        out[key] = np.zeros(len(names), values.dtype)
+        for name, value in zip(saved, values):
+            if name in here:
+                out[key][here[name]] = value
+            elif value != 0:
+                raise CheckpointError(f"{path} was written by a newer edmd: {key} entry {name!r} = {value} is unknown to this one")
+    return out
 
 
 def _restore_observers(sim: Simulation, path, data: CheckpointData, observers: list[Observer]):

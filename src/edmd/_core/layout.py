@@ -29,83 +29,109 @@ ST_IDLE = 4  # no particle has a future event
 ST_STALL = 5  # too many events at one instant (inelastic collapse / Zeno)
 ST_OVERLAP = 6  # debug mode found an overlap or a contact away from sigma
 
-# integer counters (cnt array)
-(
-    C_EVENTS,  # events processed
-    C_COLL,  # binary collisions
-    C_STALE,  # stale pair events re-predicted
-    C_AUX,  # single-particle events
-    C_REBUILD,  # neighbour-list rebuilds
-    C_WALL,  # wall collisions
-    C_LOG,  # rows in the collision log buffer
-    C_ZENO_RUN,  # consecutive events without the clock advancing
-    C_BAD_I,  # debug: offending pair
-    C_BAD_J,
-    C_TC_ELASTIC,  # collisions made elastic by the TC model
-    C_EMD_A,  # eMD*: soft contacts handled by an A event (relocation) and two B events
-    C_EMD_EXC_A,  # eMD* exception a): the relocation would overlap a third particle or a wall
-    C_EMD_EXC_B,  # eMD* exception b): a particle with a pending B event reached a new contact (particle or wall)
-    C_EMD_FALLBACK,  # eMD*: contacts resolved by the instantaneous rule (exception a, overlapping pairs)
-) = range(15)
-N_COUNTERS = 16
+# Counters, accumulators and parameters are arrays indexed by the constants below. Each array
+# has a tuple of names in index order: checkpoints store the names with the values, so a
+# checkpoint migrates by name when entries are added (a missing entry loads as 0, its "off" or
+# "none" value). Add new entries at the end of a tuple and its unpacking.
 
-# float accumulators (acc array)
+#: integer counters (``cnt`` array)
+COUNTERS = (
+    "events",  # events processed
+    "collisions",  # binary collisions
+    "stale",  # stale pair events re-predicted
+    "aux",  # single-particle events
+    "rebuilds",  # neighbour-list rebuilds
+    "wall_collisions",
+    "log_rows",  # rows in the collision log buffer
+    "zeno_run",  # consecutive events without the clock advancing
+    "bad_i",  # debug: offending pair
+    "bad_j",
+    "tc_elastic",  # collisions made elastic by the TC model
+    "emd_contacts",  # eMD*: soft contacts handled by an A event (relocation) and two B events
+    "emd_exceptions_a",  # eMD* exception a): the relocation would overlap a third particle or a wall
+    "emd_exceptions_b",  # eMD* exception b): a particle with a pending B event reached a new contact (particle or wall)
+    "emd_fallbacks",  # eMD*: contacts resolved by the instantaneous rule (exception a, overlapping pairs)
+)
 (
-    A_VIRIAL,  # sum of r_ij . J over collisions
-    A_DISSIPATED,  # kinetic (translational + rotational) energy lost in collisions
-    A_KE,  # current translational kinetic energy (for the time integral)
-    A_KE_INT,  # time integral of the translational kinetic energy (local time)
-    A_LAST_T,  # local time up to which A_KE_INT is integrated
-    A_PX,  # total momentum (changes only at walls)
-    A_PY,
-    A_PZ,
-    A_NOW,  # time of the last processed event (local)
-    A_BAD,  # debug: relative contact error
-    A_EMD_VN,  # eMD*: impact speeds of the last A event (for the collision log)
-    A_EMD_VT,
-) = range(12)
+    C_EVENTS, C_COLL, C_STALE, C_AUX, C_REBUILD, C_WALL, C_LOG, C_ZENO_RUN, C_BAD_I, C_BAD_J,
+    C_TC_ELASTIC, C_EMD_A, C_EMD_EXC_A, C_EMD_EXC_B, C_EMD_FALLBACK,
+) = range(len(COUNTERS))  # fmt: skip
+N_COUNTERS = len(COUNTERS)
+
+#: float accumulators (``acc`` array)
+ACCUMULATORS = (
+    "virial",  # sum of r_ij . J over collisions
+    "dissipated",  # kinetic (translational + rotational) energy lost in collisions
+    "kinetic",  # current translational kinetic energy (for the time integral)
+    "kinetic_integral",  # time integral of the translational kinetic energy (local time)
+    "kinetic_integral_time",  # local time up to which the integral runs
+    "px",  # total momentum (changes only at walls)
+    "py",
+    "pz",
+    "now",  # time of the last processed event (local)
+    "bad_error",  # debug: relative contact error
+    "emd_vn",  # eMD*: impact speeds of the last A event (for the collision log)
+    "emd_vt",
+    *(f"wall_{axis}_{face}" for axis in "xyz" for face in ("lower", "upper")),  # normal momentum given to each wall
+)
+(
+    A_VIRIAL, A_DISSIPATED, A_KE, A_KE_INT, A_LAST_T, A_PX, A_PY, A_PZ, A_NOW, A_BAD, A_EMD_VN, A_EMD_VT,
+) = range(12)  # fmt: skip
 A_WALL = 12  # A_WALL + 2 * axis + face: normal momentum given to each wall (face 0 lower, 1 upper)
-N_ACC = 18
+N_ACC = len(ACCUMULATORS)
 
-# integer parameters (ip array)
+#: integer parameters (``ip`` array)
+IPARAMS = (
+    "neighbours",  # neighbour structure (NB_*)
+    "log_capacity",  # collision log capacity (0: off)
+    "max_stall",  # events allowed without the clock advancing
+    "debug",
+    "normal_law",  # normal law of particle collisions (NORMAL_*)
+    "tangent_law",  # tangential law of particle collisions (TANGENT_*)
+    "tc",  # TC model on
+    "wall_normal_law",  # laws for wall collisions
+    "wall_tangent_law",
+    "walls",  # bit k set: axis k is closed by walls
+    "emdstar",  # eMD* (physics.md §4.8) for particle pairs
+    "soft_model",  # soft contact model of eMD* and of the NORMAL_SOFT law (contact.MODEL_*)
+    "emd_tables",  # eMD*: interpolate the matrix of restitution (1) or always solve (0)
+    "emd_communication",  # eMD*: post-collisional communication in exception b)
+)
 (
-    IP_MODE,  # neighbour structure
-    IP_LOG_CAP,  # collision log capacity (0: off)
-    IP_MAXSTALL,  # events allowed without the clock advancing
-    IP_DEBUG,
-    IP_NORMAL,  # normal law of particle collisions (NORMAL_*)
-    IP_TANGENT,  # tangential law of particle collisions (TANGENT_*)
-    IP_TC,  # TC model on
-    IP_WALL_NORMAL,  # laws for wall collisions
-    IP_WALL_TANGENT,
-    IP_WALLS,  # bit k set: axis k is closed by walls
-    IP_EMD,  # eMD* (physics.md §4.8) for particle pairs
-    IP_EMD_MODEL,  # soft contact model of eMD* and of the NORMAL_SOFT law (contact.MODEL_*)
-    IP_EMD_TABLE,  # eMD*: interpolate the matrix of restitution (1) or always solve (0)
-    IP_EMD_COMM,  # eMD*: post-collisional communication in exception b)
-) = range(14)
-N_IP = 16
+    IP_MODE, IP_LOG_CAP, IP_MAXSTALL, IP_DEBUG, IP_NORMAL, IP_TANGENT, IP_TC, IP_WALL_NORMAL,
+    IP_WALL_TANGENT, IP_WALLS, IP_EMD, IP_EMD_MODEL, IP_EMD_TABLE, IP_EMD_COMM,
+) = range(len(IPARAMS))  # fmt: skip
+N_IP = len(IPARAMS)
 
-# float parameters (fp array)
+#: float parameters (``fp`` array)
+FPARAMS = (
+    "skin",  # neighbour-list skin
+    "debug_tolerance",
+    "e_n",  # constant normal restitution
+    "beta",  # tangential restitution (beta = -e_t)
+    "mu",  # Coulomb friction coefficient (TANGENT_COULOMB)
+    "tc_duration",  # TC model duration
+    "visco_k",  # viscoelastic: rho = K sqrt(R_eff), K = 2Y / (3 (1 - nu^2))
+    "visco_a",  # viscoelastic dissipative time constant A
+    "visco_table_inv_step",  # 1 / grid step of the eps(s = sqrt(delta)) table
+    "wall_e_n",
+    "wall_beta",
+    "wall_mu",
+    "total_mass",
+    "soft_a",  # soft contact law constants (a, b) of :mod:`.contact`
+    "soft_b",
+    "emd_rtol",  # eMD*: tolerance of the direct two-body solver
+)
 (
-    FP_SKIN,  # neighbour-list skin
-    FP_DEBUG_TOL,
-    FP_EN,  # constant normal restitution
-    FP_BETA,  # tangential restitution (beta = -e_t)
-    FP_MU,  # Coulomb friction coefficient (TANGENT_COULOMB)
-    FP_TC,  # TC model duration
-    FP_VISCO_K,  # viscoelastic: rho = K sqrt(R_eff), K = 2Y / (3 (1 - nu^2))
-    FP_VISCO_A,  # viscoelastic dissipative time constant A
-    FP_ETAB_INV,  # 1 / grid step of the eps(s = sqrt(delta)) table
-    FP_WALL_EN,
-    FP_WALL_BETA,
-    FP_WALL_MU,
-    FP_MTOT,  # total mass
-    FP_SOFT_A,  # soft contact law constants (a, b) of :mod:`.contact`
-    FP_SOFT_B,
-    FP_EMD_RTOL,  # eMD*: tolerance of the direct two-body solver
-) = range(16)
-N_FP = 16
+    FP_SKIN, FP_DEBUG_TOL, FP_EN, FP_BETA, FP_MU, FP_TC, FP_VISCO_K, FP_VISCO_A, FP_ETAB_INV,
+    FP_WALL_EN, FP_WALL_BETA, FP_WALL_MU, FP_MTOT, FP_SOFT_A, FP_SOFT_B, FP_EMD_RTOL,
+) = range(len(FPARAMS))  # fmt: skip
+N_FP = len(FPARAMS)
+
+#: the names of each array as stored in checkpoints
+LAYOUT = {"counters": COUNTERS, "accumulators": ACCUMULATORS, "fp": FPARAMS, "ip": IPARAMS}
+#: checkpoint format 1 stored the arrays without names (16, 18, 16, 16 slots): these were theirs
+FORMAT1_LAYOUT = {"counters": COUNTERS[:15], "accumulators": ACCUMULATORS[:18], "fp": FPARAMS[:16], "ip": IPARAMS[:14]}
 
 NORMAL_CONST, NORMAL_VISCO = 0, 1
 NORMAL_SOFT = 2  # central e_n(v_n) of the soft contact law (IP_EMD_MODEL, FP_SOFT_A/B)
