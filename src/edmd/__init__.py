@@ -11,6 +11,7 @@ from .state import State, StateError
 from .sweeps import SweepError, SweepResult, SweepSpec, sweep, sweep_summary
 from .thermo import Thermo, read_thermo
 from .trajectory import Trajectory, read_state, write_state
+from .updaters import Updater, VelocityRescale, WhiteNoise
 
 __all__ = [
     "Callback",
@@ -33,6 +34,9 @@ __all__ = [
     "Thermo",
     "Totals",
     "Trajectory",
+    "Updater",
+    "VelocityRescale",
+    "WhiteNoise",
     "lattice",
     "load_config",
     "maxwell_boltzmann",

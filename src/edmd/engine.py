@@ -313,6 +313,13 @@ class Engine:
         self.acc[L.A_KE_INT] += self._kinetic_tail(local)
         self.load(self.snapshot(self.now if t is None else float(t)))
 
+    def replace(self, state: State):
+        """Continue from ``state``, a changed copy of the system at a time no event is due before
+        (an updater's work, see :class:`edmd.updaters.Updater`): a resync to a given state."""
+        self._flush_log()
+        self.acc[L.A_KE_INT] += self._kinetic_tail(float(state.time) - self.t_origin)
+        self.load(state)
+
     def restore(self, state: State, counters: np.ndarray, accumulators: np.ndarray, list_capacity: int):
         """Rebuild the engine exactly as it was right after a resync to ``state`` (a checkpoint).
 

@@ -31,6 +31,7 @@ class Totals:
         dissipated: kinetic (translational + rotational) energy lost in collisions.
         wall_impulse: ``(d, 2)`` normal momentum taken by the lower and upper wall of each axis.
         wall_collisions: particle-wall collisions.
+        energy_input: mechanical energy put in by updaters (:mod:`edmd.updaters`).
     """
 
     time: float
@@ -41,6 +42,7 @@ class Totals:
     dissipated: float
     wall_impulse: np.ndarray
     wall_collisions: int
+    energy_input: float = 0.0
 
     def __eq__(self, other):
         return isinstance(other, Totals) and self.to_dict() == other.to_dict()
@@ -70,6 +72,8 @@ class Observer:
     """
 
     priority = 0
+    #: whether :meth:`fire` may change the state (updaters, :mod:`edmd.updaters`)
+    changes_state = False
 
     def __init__(self, interval: float, start: float | None = None):
         if not interval > 0 or not math.isfinite(interval):
@@ -235,7 +239,27 @@ class Simulation:
             dissipated=float(e.acc[L.A_DISSIPATED]),
             wall_impulse=e.acc[L.A_WALL : L.A_WALL + 2 * e.dim].reshape(e.dim, 2).copy(),
             wall_collisions=int(e.cnt[L.C_WALL]),
+            energy_input=float(e.acc[L.A_ENERGY_INPUT]),
         )
+
+    @property
+    def has_updaters(self) -> bool:
+        """Whether an attached observer may change the state (then energy is not conserved alone)."""
+        return any(o.changes_state for o in self.observers)
+
+    def apply_update(self, old: State, new: State):
+        """Continue from ``new``, the system at ``old.time`` as an updater changed it.
+
+        The change of mechanical energy (kinetic, rotational and gravitational) is booked as
+        ``energy_input``, so that kinetic + rotational + potential + dissipated - input stays
+        constant. The neighbour structures and the calendar are rebuilt (as at a resync).
+        """
+        if new.n != old.n or new.dim != old.dim or new.time != old.time:
+            raise ValueError("an updater must return the same system at the same time")
+        before = old.kinetic_energy() + old.rotational_energy() + old.potential_energy(self.gravity)
+        after = new.kinetic_energy() + new.rotational_energy() + new.potential_energy(self.gravity)
+        self._engine.replace(new)
+        self._engine.acc[L.A_ENERGY_INPUT] += after - before
 
     @classmethod
     def from_checkpoint(cls, path, observers=()) -> Simulation:
@@ -261,6 +285,9 @@ class Simulation:
             totals = self.totals()
             for o in due:
                 o.fire(self, state, totals)
+                if o.changes_state:  # the observers after it see the changed system
+                    state = self.state
+                    totals = self.totals()
 
     # ------------------------------------------------------------------ running
     def run(

@@ -32,7 +32,10 @@ AXES = "xyz"
 
 # Columns that are running totals: summaries (the sweep results table) report their final value
 # and time-average every other column. Counters added to the table later belong here too.
-CUMULATIVE = ("time", "events", "collisions", "dissipated_energy", "emd_contacts", "emd_exceptions_a", "emd_exceptions_b", "emd_fallbacks")
+CUMULATIVE = (
+    "time", "events", "collisions", "dissipated_energy", "emd_contacts", "emd_exceptions_a", "emd_exceptions_b",
+    "emd_fallbacks", "energy_input",
+)  # fmt: skip
 
 
 def pressure(state: State, d_kinetic_integral: float, d_virial: float, dt: float) -> float:
@@ -67,7 +70,9 @@ class Thermo(Observer):
     ``wall_pressure_<axis>``: the mean normal force per area on its two walls. eMD* runs
     (:class:`edmd.emdstar.EMDStar`) add the cumulative counters ``emd_contacts`` (A events),
     ``emd_exceptions_a``, ``emd_exceptions_b`` and ``emd_fallbacks`` (physics.md §4.8); their
-    energies and temperatures use committed velocities. The first row has no interval (NaN).
+    energies and temperatures use committed velocities. Runs with updaters (thermostats,
+    forcing: :mod:`edmd.updaters`) add the cumulative ``energy_input``, which ``energy_balance``
+    subtracts. The first row has no interval (NaN).
     An existing CSV file is appended to; its header must name the same columns (``ValueError``
     naming the file and the differing columns otherwise).
 
@@ -101,7 +106,7 @@ class Thermo(Observer):
             "temperature_rot": state.rotational_temperature(),
             "potential_energy": potential,
             "dissipated_energy": totals.dissipated,
-            "energy_balance": kinetic + rotational + potential + totals.dissipated,
+            "energy_balance": kinetic + rotational + potential + totals.dissipated - totals.energy_input,
             "pressure": math.nan,
             "collision_rate": math.nan,
             "wall_collisions": totals.wall_collisions,
@@ -119,6 +124,8 @@ class Thermo(Observer):
                 row[f"wall_pressure_{AXES[k]}"] = float((totals.wall_impulse[k] - last.wall_impulse[k]).sum()) / (2.0 * area * dt)
         if sim.engine.emd_rule is not None:
             row.update(sim.engine.emd_counters())
+        if sim.has_updaters:
+            row["energy_input"] = totals.energy_input
         self._last = totals
         self.rows.append(row)
         if self.path is not None:
@@ -148,7 +155,8 @@ class Thermo(Observer):
         return data
 
     def columns(self) -> list[str]:
-        """The table's columns: :data:`COLUMNS` plus one ``wall_pressure_<axis>`` per wall axis (and eMD* counters)."""
+        """The table's columns: :data:`COLUMNS` plus one ``wall_pressure_<axis>`` per wall axis (and eMD*
+        counters, and ``energy_input`` when updaters change the system)."""
         return list(self.rows[0]) if self.rows else list(COLUMNS)
 
     def restore_data(self, data: dict):
@@ -156,8 +164,8 @@ class Thermo(Observer):
         super().restore_data(data)
         columns, ints = list(data["columns"]), set(data["integer_columns"])
         extra = columns[len(COLUMNS) :]
-        if columns[: len(COLUMNS)] != list(COLUMNS) or not all(c.startswith(("wall_pressure_", "emd_")) for c in extra):
-            raise ValueError(f"thermo columns {columns} differ from this version's {list(COLUMNS)} (+ wall pressures, eMD* counters)")
+        if columns[: len(COLUMNS)] != list(COLUMNS) or not all(c.startswith(("wall_pressure_", "emd_", "energy_input")) for c in extra):
+            raise ValueError(f"thermo columns {columns} differ from this version's {list(COLUMNS)} (+ wall pressures, eMD* counters, energy input)")
         table = np.asarray(data.get("rows", np.zeros((0, len(columns)))), np.float64)
         self.rows = [{c: int(v) if c in ints else float(v) for c, v in zip(columns, r)} for r in table]
         self._last = None if data["last"] is None else Totals.from_dict(data["last"])

@@ -73,11 +73,13 @@ ACCUMULATORS = (
     "emd_vn",  # eMD*: impact speeds of the last A event (for the collision log)
     "emd_vt",
     *(f"wall_{axis}_{face}" for axis in "xyz" for face in ("lower", "upper")),  # normal momentum given to each wall
+    "energy_input",  # mechanical energy put in by updaters (thermostats, forcing) since the start
 )
 (
     A_VIRIAL, A_DISSIPATED, A_KE, A_KE_INT, A_LAST_T, A_PX, A_PY, A_PZ, A_NOW, A_BAD, A_EMD_VN, A_EMD_VT,
 ) = range(12)  # fmt: skip
 A_WALL = 12  # A_WALL + 2 * axis + face: normal momentum given to each wall (face 0 lower, 1 upper)
+A_ENERGY_INPUT = ACCUMULATORS.index("energy_input")
 N_ACC = len(ACCUMULATORS)
 
 #: integer parameters (``ip`` array)
