@@ -32,6 +32,7 @@ def _sift_up(heap, loc, key, pos):
         pos = parent
     heap[pos] = i
     loc[i] = pos
+    return pos
 
 
 @hot
@@ -91,47 +92,54 @@ def _insert(q, i, t):
 
 
 @hot
-def _remove(q, i):
+def queue_update(q, i, t):
+    """Give particle ``i`` the new key ``t`` (re-sorting it).
+
+    At most one heap position changes its key (in place, the hole left by ``i``, or ``i``
+    appended), so one sift up and one sift down restore the heap: inlined into the event loop
+    at every re-prediction site, each copy stays small.
+    """
     key, loc, nxt, prv, head, heap, qi, qf = q
     pos = loc[i]
+    b = _bucket_of(t, qi, qf)
+    n = qi[QI_SIZE]
+    fix = -1  # the heap position to restore
     if pos >= 0:
-        n = qi[QI_SIZE] - 1
-        qi[QI_SIZE] = n
-        if pos != n:
-            last = heap[n]
-            heap[pos] = last
-            loc[last] = pos
-            if pos > 0 and key[heap[(pos - 1) >> 1]] > key[last]:
-                _sift_up(heap, loc, key, pos)
-            else:
-                _sift_down(heap, loc, key, pos, n)
-    else:
-        b = -2 - pos
+        if b < 0:  # stays in the heap with a new key
+            fix = pos
+        else:  # leaves the heap: its last entry fills the hole
+            n -= 1
+            qi[QI_SIZE] = n
+            if pos != n:
+                last = heap[n]
+                heap[pos] = last
+                loc[last] = pos
+                fix = pos
+    else:  # leaves its bucket list
         p = prv[i]
         s = nxt[i]
         if p >= 0:
             nxt[p] = s
         else:
-            head[b] = s
+            head[-2 - pos] = s
         if s >= 0:
             prv[s] = p
-
-
-@hot
-def queue_update(q, i, t):
-    """Give particle ``i`` the new key ``t`` (re-sorting it)."""
-    key, loc, nxt, prv, head, heap, qi, qf = q
-    pos = loc[i]
-    if pos >= 0 and _bucket_of(t, qi, qf) < 0:
-        old = key[i]
-        key[i] = t
-        if t < old:
-            _sift_up(heap, loc, key, pos)
-        else:
-            _sift_down(heap, loc, key, pos, qi[QI_SIZE])
-        return
-    _remove(q, i)
-    _insert(q, i, t)
+        if b < 0:  # joins the heap as its last entry
+            heap[n] = i
+            fix = n
+            n += 1
+            qi[QI_SIZE] = n
+    key[i] = t
+    if b >= 0:
+        h = head[b]
+        nxt[i] = h
+        prv[i] = -1
+        if h >= 0:
+            prv[h] = i
+        head[b] = i
+        loc[i] = -2 - b
+    if fix >= 0:  # a smaller key rises, a larger one sinks (never both)
+        _sift_down(heap, loc, key, _sift_up(heap, loc, key, fix), n)
 
 
 @jit
