@@ -193,28 +193,14 @@ def _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf, contact
 
 
 @jit
-def _predict(i, t, P, count, ev, grid, lists, geo, fp, ip, cbuf, ptb):
-    """Both candidate events of ``i`` for any feature set (read from ``ip``): the set-up's
-    prediction, compiled once for every loop variant."""
-    mode = ip[L.IP_MODE]
-    walls = ip[L.IP_WALLS]
+def _repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb):
+    """Both candidate events of ``i`` after its flight changed, and its calendar key.
+
+    Compiled once and called (eMD* exception b); the loop inlines the same steps at its one
+    re-prediction site.
+    """
     predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
-    predict_aux(i, t, P, ev, grid, lists, geo, mode, walls != 0, walls, ip[L.IP_EMD] != 0, fp[L.FP_SKIN], ptb)
-
-
-@jit
-def _repredict(i, t, P, count, ev, q, grid, lists, geo, fp, ip, cbuf, ptb):
-    """:func:`_predict` and the new calendar key of ``i``, called by the loop for its rare events
-    (shell exits, walls, eMD* B events and exception b): the loop inlines the predictors only on
-    the paths of collisions and cell crossings, whose cost is compile time of every variant."""
-    _predict(i, t, P, count, ev, grid, lists, geo, fp, ip, cbuf, ptb)
-    _requeue(q, ev, i)
-
-
-@jit
-def _repredict_pair(i, t, P, count, ev, q, grid, lists, geo, mode, cbuf):
-    """The pair event and calendar key of ``i`` after a stale pair event (called, as above)."""
-    predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
+    predict_aux(i, t, P, ev, grid, lists, geo, mode, ip[L.IP_WALLS] != 0, ip[L.IP_WALLS], ip[L.IP_EMD] != 0, fp[L.FP_SKIN], ptb)
     _requeue(q, ev, i)
 
 
@@ -324,7 +310,7 @@ def _finish_contact(p, i, j, t, P, count, ev, q, grid, lists, geo, mode, fp, ip,
     execute_b(p, t, P, count, emd, geo)
     if ip[L.IP_EMD_COMM] and other != i and other != j and pj[other] == p:
         execute_b(other, t, P, count, emd, geo)
-        _repredict(np.int64(other), t, P, count, ev, q, grid, lists, geo, fp, ip, cbuf, emd[1])
+        _repredict(np.int64(other), t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd[1])
 
 
 @jit
@@ -416,6 +402,7 @@ def variant_name(walls: bool, emd_on: bool, rough: bool, normal: int, debug: boo
 
 
 _VARIANTS: dict[tuple, Loop] = {}
+_SETUPS: dict[tuple, Callable] = {}
 
 
 def loop_variant(walls: bool, emd_on: bool, rough: bool, normal: int, debug: bool = False) -> Loop:
@@ -443,7 +430,9 @@ def loop_variant(walls: bool, emd_on: bool, rough: bool, normal: int, debug: boo
     """
     key = (bool(walls), bool(emd_on), bool(rough), int(normal), bool(debug))
     if key not in _VARIANTS:
-        _VARIANTS[key] = Loop(_make_loop(*key), setup_events, variant_name(*key))
+        if key[:2] not in _SETUPS:  # the set-up depends on the single-particle events only
+            _SETUPS[key[:2]] = _make_setup(*key[:2])
+        _VARIANTS[key] = Loop(_make_loop(*key), _SETUPS[key[:2]], variant_name(*key))
     return _VARIANTS[key]
 
 
@@ -484,6 +473,10 @@ def _make_loop(walls, emd_on, rough, normal, debug):
             done += 1
             cnt[L.C_EVENTS] += 1
             acc[L.A_NOW] = t
+            j = i  # the second particle to re-predict (a binary collision only)
+            nrep = 1
+            pair = True  # re-predict the pair event
+            aux = True  # re-predict the single-particle event
             if ev[3][i] <= ev[0][i]:
                 kind = ev[4][i]
                 cnt[L.C_AUX] += 1
@@ -504,74 +497,88 @@ def _make_loop(walls, emd_on, rough, normal, debug):
                     cnt[L.C_REBUILD] += 1
                     if not rebuild_list(i, P, grid, lists, geo, skin, cbuf):
                         return L.ST_LIST_FULL
-                else:  # a cell crossing (the most frequent event of dilute gases): inlined
-                    _cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf)  # scans the new layer
+                else:  # cell crossings, the most frequent events of dilute gases: a path of their own
+                    _cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf)
                     predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb)
                     _requeue(q, ev, i)
                     continue
-                _repredict(i, t, P, count, ev, q, grid, lists, geo, fp, ip, cbuf, ptb)  # rare: called
-                continue
-            j = ev[1][i]
-            if count[j] != ev[2][i]:
-                cnt[L.C_STALE] += 1
-                _repredict_pair(i, t, P, count, ev, q, grid, lists, geo, mode, cbuf)
-                continue
-            if log_cap > 0 and cnt[L.C_LOG] >= log_cap:
-                cnt[L.C_EVENTS] -= 1
-                return L.ST_LOG_FULL
-            if debug and not _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf, emd_on):
-                return L.ST_OVERLAP
-            advance(P, i, t, geo)
-            advance(P, j, t, geo)
-            integrate_kinetic(acc, t, geo, total_mass)
-            outcome = 2
-            vn = vt = 0.0
-            if emd_on:
-                outcome = _emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt, cbuf, emd)
-                if outcome < 0:
-                    return L.ST_LIST_FULL
-                if outcome == 1:
-                    vn, vt = acc[L.A_EMD_VN], acc[L.A_EMD_VT]
-                elif outcome == 2:
-                    cnt[L.C_EMD_FALLBACK] += 1
-            if outcome == 2 and rough:
-                vn, vt = collide_pair(t, P, mass, omega, inertia, tlast, i, j, geo, fp, ip, etab, acc, cnt, ip[L.IP_TANGENT], normal)
-            elif outcome == 2:
-                vn, vt = collide_pair(t, P, mass, omega, inertia, tlast, i, j, geo, fp, ip, etab, acc, cnt, TANGENT_SMOOTH, normal)
-            count[i] += 1
-            count[j] += 1
-            if outcome != 0:
-                cnt[L.C_COLL] += 1
-                _log_collision(clog, cnt, log_cap, t, i, j, vn, vt)
-            # both partners through one inlined copy of the predictors and the calendar update
-            # (each inlined copy costs compile time; separate paths for collisions and crossings
-            # keep the branch history of each event kind apart, which a shared site does not)
-            for s in range(2):
+            else:
+                j = ev[1][i]
+                if count[j] != ev[2][i]:
+                    cnt[L.C_STALE] += 1
+                    j = i
+                    aux = False
+                else:
+                    if log_cap > 0 and cnt[L.C_LOG] >= log_cap:
+                        cnt[L.C_EVENTS] -= 1
+                        return L.ST_LOG_FULL
+                    if debug and not _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf, emd_on):
+                        return L.ST_OVERLAP
+                    advance(P, i, t, geo)
+                    advance(P, j, t, geo)
+                    integrate_kinetic(acc, t, geo, total_mass)
+                    outcome = 2
+                    vn = vt = 0.0
+                    if emd_on:
+                        outcome = _emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt, cbuf, emd)
+                        if outcome < 0:
+                            return L.ST_LIST_FULL
+                        if outcome == 1:
+                            vn, vt = acc[L.A_EMD_VN], acc[L.A_EMD_VT]
+                        elif outcome == 2:
+                            cnt[L.C_EMD_FALLBACK] += 1
+                    if outcome == 2 and rough:
+                        vn, vt = collide_pair(t, P, mass, omega, inertia, tlast, i, j, geo, fp, ip, etab, acc, cnt, ip[L.IP_TANGENT], normal)
+                    elif outcome == 2:
+                        vn, vt = collide_pair(t, P, mass, omega, inertia, tlast, i, j, geo, fp, ip, etab, acc, cnt, TANGENT_SMOOTH, normal)
+                    count[i] += 1
+                    count[j] += 1
+                    if outcome != 0:
+                        cnt[L.C_COLL] += 1
+                        _log_collision(clog, cnt, log_cap, t, i, j, vn, vt)
+                    predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
+                    predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb)
+                    _requeue(q, ev, i)
+                    predict_pair(j, t, P, count, ev, grid, lists, geo, mode, cbuf)
+                    predict_aux(j, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb)
+                    _requeue(q, ev, j)
+                    continue
+            # One re-prediction site for every event kind: each predictor and the calendar update
+            # are inlined into the loop once (compile time grows with the inlined copies).
+            for s in range(nrep):
                 p = i if s == 0 else j
-                predict_pair(p, t, P, count, ev, grid, lists, geo, mode, cbuf)
-                predict_aux(p, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb)
+                if pair:
+                    predict_pair(p, t, P, count, ev, grid, lists, geo, mode, cbuf)
+                if aux:
+                    predict_aux(p, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb)
                 _requeue(q, ev, p)
 
     return run_events
 
 
-@jit
-def setup_events(part, ev, grid, lists, geo, fp, ip, cbuf, emd, t):
-    """Bin every particle (positions or list centres) and predict all events at time ``t``.
+def _make_setup(walls, emd_on):
+    @jit
+    def setup_events(part, ev, grid, lists, geo, fp, ip, cbuf, emd, t):
+        """Bin every particle (positions or list centres) and predict all events at time ``t``.
 
-    One compiled function for every loop variant (its predictions are calls of :func:`_predict`).
-    Returns ``False`` if a neighbour list ran out of capacity.
-    """
-    P = part[0]
-    count = part[5]
-    n = P.shape[0]
-    if ip[L.IP_MODE] == NB_LIST:
-        if not build_lists(P, grid, lists, geo, fp[L.FP_SKIN], cbuf):
-            return False
-    else:
-        grid[0][:] = -1
+        Returns ``False`` if a neighbour list ran out of capacity.
+        """
+        P = part[0]
+        count = part[5]
+        mode = ip[L.IP_MODE]
+        n = P.shape[0]
+        skin = fp[L.FP_SKIN]
+        wall_axes = ip[L.IP_WALLS]
+        if mode == NB_LIST:
+            if not build_lists(P, grid, lists, geo, skin, cbuf):
+                return False
+        else:
+            grid[0][:] = -1
+            for i in range(n):
+                cell_insert(grid, i, cell_of_point(P[i, L.X], P[i, L.Y], P[i, L.Z], geo, grid))
         for i in range(n):
-            cell_insert(grid, i, cell_of_point(P[i, L.X], P[i, L.Y], P[i, L.Z], geo, grid))
-    for i in range(n):
-        _predict(i, t, P, count, ev, grid, lists, geo, fp, ip, cbuf, emd[1])
-    return True
+            predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
+            predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, emd[1])
+        return True
+
+    return setup_events

@@ -32,7 +32,6 @@ def _sift_up(heap, loc, key, pos):
         pos = parent
     heap[pos] = i
     loc[i] = pos
-    return pos
 
 
 @hot
@@ -96,17 +95,19 @@ def queue_update(q, i, t):
     """Give particle ``i`` the new key ``t`` (re-sorting it).
 
     At most one heap position changes its key (in place, the hole left by ``i``, or ``i``
-    appended), so one sift up and one sift down restore the heap: inlined into the event loop
-    at every re-prediction site, each copy stays small.
+    appended), so one sift, up or down, restores the heap: inlined into the event loop at
+    every re-prediction site, each copy stays small.
     """
     key, loc, nxt, prv, head, heap, qi, qf = q
     pos = loc[i]
     b = _bucket_of(t, qi, qf)
     n = qi[QI_SIZE]
     fix = -1  # the heap position to restore
+    up = True  # by a sift up (else down)
     if pos >= 0:
         if b < 0:  # stays in the heap with a new key
             fix = pos
+            up = t < key[i]
         else:  # leaves the heap: its last entry fills the hole
             n -= 1
             qi[QI_SIZE] = n
@@ -115,6 +116,7 @@ def queue_update(q, i, t):
                 heap[pos] = last
                 loc[last] = pos
                 fix = pos
+                up = pos > 0 and key[heap[(pos - 1) >> 1]] > key[last]
     else:  # leaves its bucket list
         p = prv[i]
         s = nxt[i]
@@ -138,8 +140,11 @@ def queue_update(q, i, t):
             prv[h] = i
         head[b] = i
         loc[i] = -2 - b
-    if fix >= 0:  # a smaller key rises, a larger one sinks (never both)
-        _sift_down(heap, loc, key, _sift_up(heap, loc, key, fix), n)
+    if fix >= 0:
+        if up:
+            _sift_up(heap, loc, key, fix)
+        else:
+            _sift_down(heap, loc, key, fix, n)
 
 
 @jit
