@@ -196,8 +196,7 @@ def _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf, contact
 def _repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb):
     """Both candidate events of ``i`` after its flight changed, and its calendar key.
 
-    Compiled once and called (eMD* exception b); the loop inlines the same steps at its one
-    re-prediction site.
+    Compiled once and called (eMD* exception b); the loop inlines the same steps.
     """
     predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
     predict_aux(i, t, P, ev, grid, lists, geo, mode, ip[L.IP_WALLS] != 0, ip[L.IP_WALLS], ip[L.IP_EMD] != 0, fp[L.FP_SKIN], ptb)
@@ -473,10 +472,7 @@ def _make_loop(walls, emd_on, rough, normal, debug):
             done += 1
             cnt[L.C_EVENTS] += 1
             acc[L.A_NOW] = t
-            j = i  # the second particle to re-predict (a binary collision only)
-            nrep = 1
-            pair = True  # re-predict the pair event
-            aux = True  # re-predict the single-particle event
+            aux = True  # the rare events re-predict both events of i at the shared site below
             if ev[3][i] <= ev[0][i]:
                 kind = ev[4][i]
                 cnt[L.C_AUX] += 1
@@ -497,8 +493,8 @@ def _make_loop(walls, emd_on, rough, normal, debug):
                     cnt[L.C_REBUILD] += 1
                     if not rebuild_list(i, P, grid, lists, geo, skin, cbuf):
                         return L.ST_LIST_FULL
-                else:  # cell crossings, the most frequent events of dilute gases: a path of their own
-                    _cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf)
+                else:  # a cell crossing (the most frequent event of dilute gases): a path of its own
+                    _cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf)  # scans the new layer
                     predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb)
                     _requeue(q, ev, i)
                     continue
@@ -506,7 +502,6 @@ def _make_loop(walls, emd_on, rough, normal, debug):
                 j = ev[1][i]
                 if count[j] != ev[2][i]:
                     cnt[L.C_STALE] += 1
-                    j = i
                     aux = False
                 else:
                     if log_cap > 0 and cnt[L.C_LOG] >= log_cap:
@@ -536,6 +531,8 @@ def _make_loop(walls, emd_on, rough, normal, debug):
                     if outcome != 0:
                         cnt[L.C_COLL] += 1
                         _log_collision(clog, cnt, log_cap, t, i, j, vn, vt)
+                    # a path of its own (as crossings have): a site shared by several event kinds mixes
+                    # their branch histories, which cost cell-mode gases 20-30 % (measured)
                     predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
                     predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb)
                     _requeue(q, ev, i)
@@ -543,15 +540,12 @@ def _make_loop(walls, emd_on, rough, normal, debug):
                     predict_aux(j, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb)
                     _requeue(q, ev, j)
                     continue
-            # One re-prediction site for every event kind: each predictor and the calendar update
-            # are inlined into the loop once (compile time grows with the inlined copies).
-            for s in range(nrep):
-                p = i if s == 0 else j
-                if pair:
-                    predict_pair(p, t, P, count, ev, grid, lists, geo, mode, cbuf)
-                if aux:
-                    predict_aux(p, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb)
-                _requeue(q, ev, p)
+            # the rare events (stale pair events, shell exits, walls, B events) share one site:
+            # every inlined copy of the predictors is compile time of every variant
+            predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
+            if aux:
+                predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb)
+            _requeue(q, ev, i)
 
     return run_events
 
