@@ -2,7 +2,7 @@
 
 A run compiles only the loop variant of its physics (:func:`edmd._core.loop.loop_variant`): walls,
 eMD*, a tangential law and the normal law. The first run of each feature set pays that compile
-(about 10-25 CPU-seconds); later runs load it from Numba's on-disk cache. A cluster image, a
+(about 15-45 CPU-seconds); later runs load it from Numba's on-disk cache. A cluster image, a
 sweep's workers or CI can warm the cache for the feature sets they will use.
 
 Features are written as ``+``-joined names: ``plain``, ``walls``, ``rough``, ``viscoelastic``,

@@ -71,6 +71,18 @@ def _bucket_of(t, qi, qf):
 
 
 @hot
+def _link(nxt, prv, head, loc, i, b):
+    """Put ``i`` at the head of the list of bucket ``b``."""
+    h = head[b]
+    nxt[i] = h
+    prv[i] = -1
+    if h >= 0:
+        prv[h] = i
+    head[b] = i
+    loc[i] = -2 - b
+
+
+@hot
 def _insert(q, i, t):
     key, loc, nxt, prv, head, heap, qi, qf = q
     key[i] = t
@@ -81,13 +93,7 @@ def _insert(q, i, t):
         qi[QI_SIZE] = n + 1
         _sift_up(heap, loc, key, n)
     else:
-        h = head[b]
-        nxt[i] = h
-        prv[i] = -1
-        if h >= 0:
-            prv[h] = i
-        head[b] = i
-        loc[i] = -2 - b
+        _link(nxt, prv, head, loc, i, b)
 
 
 @hot
@@ -133,13 +139,7 @@ def queue_update(q, i, t):
             qi[QI_SIZE] = n
     key[i] = t
     if b >= 0:
-        h = head[b]
-        nxt[i] = h
-        prv[i] = -1
-        if h >= 0:
-            prv[h] = i
-        head[b] = i
-        loc[i] = -2 - b
+        _link(nxt, prv, head, loc, i, b)
     if fix >= 0:
         if up:
             _sift_up(heap, loc, key, fix)
