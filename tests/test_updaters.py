@@ -110,3 +110,11 @@ def test_bad_updater_arguments():
     sim.add(VelocityRescale(kT=1.0, interval=0.5))
     with pytest.raises(ValueError, match="the temperature is 0"):
         sim.run(until_time=1.0)
+
+
+def test_updaters_refuse_the_dem():
+    from edmd import DEMSimulation, LinearDashpot
+
+    sim = DEMSimulation(gas(3), contact=LinearDashpot.from_restitution(0.9, 1e4, mass=1.0))
+    with pytest.raises(TypeError, match="VelocityRescale needs an event-driven Simulation"):
+        sim.add(VelocityRescale(kT=1.0, interval=0.5))

@@ -308,16 +308,19 @@ class Engine:
         ``t`` may lie after the last event only if no event is due before it (the engine has
         just returned ``ST_TIME`` for a stop time ``>= t``): checkpoints resync at their exact time.
         """
-        self._flush_log()
         local = float(self.acc[L.A_NOW]) if t is None else float(t) - self.t_origin
-        self.acc[L.A_KE_INT] += self._kinetic_tail(local)
-        self.load(self.snapshot(self.now if t is None else float(t)))
+        self._reload(self.snapshot(self.now if t is None else float(t)), local)
 
     def replace(self, state: State):
         """Continue from ``state``, a changed copy of the system at a time no event is due before
         (an updater's work, see :class:`edmd.updaters.Updater`): a resync to a given state."""
+        self._reload(state, float(state.time) - self.t_origin)
+
+    def _reload(self, state: State, local: float):
+        """Close the collision log and the kinetic-energy integral at local time ``local`` (the
+        time of ``state``) and rebuild every array from ``state``."""
         self._flush_log()
-        self.acc[L.A_KE_INT] += self._kinetic_tail(float(state.time) - self.t_origin)
+        self.acc[L.A_KE_INT] += self._kinetic_tail(local)
         self.load(state)
 
     def restore(self, state: State, counters: np.ndarray, accumulators: np.ndarray, list_capacity: int):

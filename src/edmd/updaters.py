@@ -53,6 +53,11 @@ class Updater(Observer):
             raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
         self.rng = np.random.Generator(np.random.PCG64(int(seed)))
 
+    def attach(self, sim: Simulation):
+        if not hasattr(sim.engine, "replace"):
+            raise TypeError(f"{type(self).__name__} needs an event-driven Simulation: the DEM cannot continue from a changed state")
+        super().attach(sim)
+
     def fire(self, sim: Simulation, state: State, totals: Totals):
         sim.apply_update(state, self.update(state.copy(), self.rng))
         self._k += 1
