@@ -10,7 +10,7 @@ exactly one (then the neighbour search does not look along it); an open axis any
 import math
 
 import numpy as np
-from .jit import hot
+from .jit import leaf
 
 from .predict import INF, gap_time
 
@@ -45,7 +45,7 @@ def new_grid(n, box, nc):
     )
 
 
-@hot
+@leaf
 def _axis_cell(x, length, inv, nc):
     if nc == 1:
         return 0
@@ -57,7 +57,7 @@ def _axis_cell(x, length, inv, nc):
     return c
 
 
-@hot
+@leaf
 def cell_of_point(x, y, z, geo, grid):
     gi = grid[3]
     gf = grid[4]
@@ -67,7 +67,7 @@ def cell_of_point(x, y, z, geo, grid):
     return (cx * gi[1] + cy) * gi[2] + cz
 
 
-@hot
+@leaf
 def cell_insert(grid, i, c):
     head, nxt, cell = grid[0], grid[1], grid[2]
     nxt[i] = head[c]
@@ -75,7 +75,7 @@ def cell_insert(grid, i, c):
     cell[i] = c
 
 
-@hot
+@leaf
 def cell_remove(grid, i):
     head, nxt, cell = grid[0], grid[1], grid[2]
     c = cell[i]
@@ -91,7 +91,7 @@ def cell_remove(grid, i):
         k = s
 
 
-@hot
+@leaf
 def _offsets(k, nc, axis, step):
     """Offsets searched on axis ``k``: the crossing direction only on ``axis``, else -1..1."""
     if k == axis:
@@ -101,7 +101,7 @@ def _offsets(k, nc, axis, step):
     return -1, 1
 
 
-@hot
+@leaf
 def _shift(c, o, nc, periodic):
     """Neighbour coordinate ``c + o`` on one axis, or ``-1`` beyond an open edge."""
     c2 = c + o
@@ -112,7 +112,7 @@ def _shift(c, o, nc, periodic):
     return c2
 
 
-@hot
+@leaf
 def cell_block(grid, c, geo, out, axis, step):
     """Write cells around ``c`` into ``out`` (each once) and return their number.
 
@@ -148,7 +148,7 @@ def cell_block(grid, c, geo, out, axis, step):
     return n
 
 
-@hot
+@leaf
 def crossing_time(x, v, g, c_axis, nc, length, cell_len, periodic):
     """Time and face (0 lower, 1 upper) of the next crossing out of cell ``c_axis`` on one axis.
 

@@ -26,12 +26,12 @@ import math
 from . import layout as L
 from .layout import NORMAL_CONST, NORMAL_SOFT, TANGENT_COULOMB, TANGENT_SMOOTH
 from .contact import MODEL_HERTZ, contact_scales
-from .jit import hot
+from .jit import hot, leaf
 from .predict import wrap3
 from .twobody import dashpot_central
 
 
-@hot
+@leaf
 def contact_normal(P, i, j, geo):
     """Unit normal from ``j`` to ``i`` and the centre distance (minimum image)."""
     dx, dy, dz = wrap3(P[i, L.X] - P[j, L.X], P[i, L.Y] - P[j, L.Y], P[i, L.Z] - P[j, L.Z], geo)
@@ -40,7 +40,7 @@ def contact_normal(P, i, j, geo):
     return dx * inv, dy * inv, dz * inv, r
 
 
-@hot
+@leaf
 def eps_viscoelastic(delta, etab, inv_ds):
     """Restitution :math:`\\varepsilon(\\delta)` of viscoelastic spheres from the spline table in :math:`s=\\sqrt\\delta`.
 
@@ -57,7 +57,7 @@ def eps_viscoelastic(delta, etab, inv_ds):
     return ((etab[k, 0] * h + etab[k, 1]) * h + etab[k, 2]) * h + etab[k, 3]
 
 
-@hot
+@leaf
 def normal_restitution(law, e_const, vn, mu_red, r_eff, fp, ip, etab):
     r"""Normal restitution of an impact at normal speed ``vn``.
 
@@ -80,7 +80,7 @@ def normal_restitution(law, e_const, vn, mu_red, r_eff, fp, ip, etab):
     return eps_viscoelastic(delta, etab, fp[L.FP_ETAB_INV])
 
 
-@hot
+@leaf
 def impulse(nx, ny, nz, gx, gy, gz, wx, wy, wz, inv_mu, inv_mt, e, beta, mu_c, tangent):
     """Impulse on ``i`` for relative centre velocity ``g`` and summed spins ``w = R_i w_i + R_j w_j``.
 
@@ -104,7 +104,7 @@ def impulse(nx, ny, nz, gx, gy, gz, wx, wy, wz, inv_mu, inv_mt, e, beta, mu_c, t
     return jn * nx + k * tx, jn * ny + k * ty, jn * nz + k * tz, -gn, vt
 
 
-@hot
+@leaf
 def _energy(P, mass, omega, inertia, i, spin):
     e = mass[i] * (P[i, L.VX] ** 2 + P[i, L.VY] ** 2 + P[i, L.VZ] ** 2)
     if spin:
@@ -112,7 +112,7 @@ def _energy(P, mass, omega, inertia, i, spin):
     return 0.5 * e
 
 
-@hot
+@leaf
 def _kick(P, omega, i, jx, jy, jz, nx, ny, nz, dv, r_over_i, spin):
     """Velocity change ``dv * J`` and spin change ``-(R/I) n x J`` (the same for both partners:
     ``i`` takes ``J`` at ``-R_i n``, ``j`` takes ``-J`` at ``+R_j n``)."""
@@ -125,7 +125,7 @@ def _kick(P, omega, i, jx, jy, jz, nx, ny, nz, dv, r_over_i, spin):
         omega[i, 2] -= r_over_i * (nx * jy - ny * jx)
 
 
-@hot
+@leaf
 def _tc_elastic(t, tlast, i, j, fp, ip):
     """TC model (physics.md §3): elastic if either partner collided less than ``t_TC`` ago (``j < 0``: a wall)."""
     if ip[L.IP_TC] == 0:

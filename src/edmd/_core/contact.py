@@ -12,13 +12,13 @@ Pair quantities follow from the masses and radii of the two particles (polydispe
 
 import math
 
-from .jit import hot
+from .jit import leaf
 
 MODEL_DASHPOT = 0
 MODEL_HERTZ = 1
 
 
-@hot
+@leaf
 def contact_force(model, a, b, reff, xi, xi_dot):
     r"""Normal force and elastic energy of a contact with overlap ``xi > 0`` (physics.md §2.2).
 
@@ -38,7 +38,7 @@ def contact_force(model, a, b, reff, xi, xi_dot):
     return (f if f > 0.0 else 0.0), f_el, 0.5 * f_el * xi
 
 
-@hot
+@leaf
 def contact_scales(model, a, b, mu, reff, sigma, vn):
     r"""Scales of a contact with normal impact speed ``vn`` (physics.md §4.4).
 
@@ -58,7 +58,7 @@ def contact_scales(model, a, b, mu, reff, sigma, vn):
     return b / (mu * w0), vn / (w0 * sigma), 1.0 / w0, vn / w0
 
 
-@hot
+@leaf
 def table_coordinates(model, a, b, mu, reff, sigma, v):
     r"""Velocity-dependent table coordinates ``(u1, lam_v)`` of an impact with total speed ``v`` (physics.md §4.7).
 

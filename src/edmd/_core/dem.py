@@ -29,7 +29,7 @@ import math
 
 from .cells import cell_block, cell_insert, cell_of_point
 from .contact import MODEL_HERTZ, contact_force
-from .jit import hot, jit
+from .jit import jit, leaf
 from .layout import C_COLL, C_EVENTS, C_REBUILD, ST_EVENTS, ST_LIST_FULL
 from .predict import wrap3
 
@@ -75,7 +75,7 @@ def build_list(pos, radius, geo, grid, skin, nbl, nbl_n, tch, cbuf):
     return True
 
 
-@hot
+@leaf
 def _onset_impulse(model, f, f_el, xi, xi_dot, h):
     r"""Correction of the trapezoidal impulse of the dashpot's dissipative force in the step in which a contact began.
 
@@ -96,7 +96,7 @@ def _onset_impulse(model, f, f_el, xi, xi_dot, h):
     return (tau - 0.5 * h) * (f - f_el)
 
 
-@hot
+@leaf
 def _forces(pos, vel, vp, acc, mass, radius, nbl, nbl_n, tch, geo, model, ca, cb, h):
     """Add the contact accelerations at ``pos`` with velocities ``vp`` to ``acc`` (holding gravity).
 
@@ -154,7 +154,7 @@ def _forces(pos, vel, vp, acc, mass, radius, nbl, nbl_n, tch, geo, model, ca, cb
     return u, vir, pd, onsets
 
 
-@hot
+@leaf
 def _worst_drift(vel, acc, dsp, h):
     """Largest squared displacement since the list build after a drift of ``h`` (``dsp`` not changed)."""
     hh = 0.5 * h

@@ -1,4 +1,4 @@
-"""Compilation policy of the core: every function is cached; hot helpers are inlined.
+"""Compilation policy of the core: every function is cached; helpers of the event loop are inlined.
 
 * ``error_model="numpy"`` drops Python's zero-division checks: the predictors never divide by
   zero by construction, and IEEE results are what the physics wants.
@@ -7,7 +7,18 @@
   them in code with branches, and without them the event calendar runs 4.7x faster (183 -> 39
   ns per pop+update, measured). Such functions cannot allocate arrays: scratch buffers come
   from Python. Functions that allocate (snapshots, initial packings) use :data:`jit_alloc`.
-* ``inline="always"`` inlines at the Numba IR level (the hot helpers of the event loop).
+* Two ways of inlining, chosen by what they cost to compile (``benchmarks/bench_compile.py``):
+
+  - :data:`leaf` (``forceinline``): the function is typed and compiled **once** per signature
+    and LLVM inlines its machine-level body into every caller. Numba's own IR inlining re-runs
+    the callee's front end (bytecode, SSA, typing) at every call site, nested helpers included:
+    with every helper IR-inlined, the loop spent 17 of its 43 compile seconds inlining and 7
+    in SSA reconstruction of the grown body. Scalar helpers and the queue, cell and list
+    internals are leaves.
+  - :data:`hot` (``inline="always"``, Numba IR level): kept for the loop-level pieces whose
+    branches depend on the loop variant's feature flags (``predict_aux``, ``collide_pair``,
+    ...). Inlined in the IR, Numba prunes those branches before typing, so a plain run never
+    types wall, spin or eMD* code (see :func:`.loop.loop_variant`).
 """
 
 from numba import njit
@@ -29,6 +40,7 @@ _NO_RC = _no_refcount_option()
 
 jit = njit(cache=True, error_model="numpy", **_NO_RC)
 hot = njit(cache=True, inline="always", error_model="numpy", **_NO_RC)
+leaf = njit(cache=True, forceinline=True, error_model="numpy", **_NO_RC)
 jit_alloc = njit(cache=True, error_model="numpy")
 
 

@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from .jit import hot, jit
+from .jit import jit, leaf
 from .contact import MODEL_HERTZ, contact_scales, table_coordinates
 from .twobody import dashpot_central, solve_scaled
 
@@ -51,7 +51,7 @@ def _inverse_denominators():
 _INV_DEN = _inverse_denominators()
 
 
-@hot
+@leaf
 def axis_map(kind, a, u):
     """Mapped coordinate of an axis (see module docstring)."""
     if kind == AX_GRAZING:
@@ -61,7 +61,7 @@ def axis_map(kind, a, u):
     return u
 
 
-@hot
+@leaf
 def solver_parameters(model, u1, lam_v, b):
     r"""From table coordinates to the §4.4 parameters ``(c, Lambda, tan_alpha)`` (physics.md §4.7).
 
@@ -76,7 +76,7 @@ def solver_parameters(model, u1, lam_v, b):
     return 2.0 * u1, lam_v * cb, b / cb
 
 
-@hot
+@leaf
 def central_values(model, c, ctab, cgeo):
     r"""Central :math:`(\tau_{c0}, e_n)` at damping ``c`` (physics.md §2.2).
 
@@ -107,7 +107,7 @@ def central_values(model, c, ctab, cgeo):
     return tau, e
 
 
-@hot
+@leaf
 def _weights(t, p, W, row):
     """Lagrange weights of the nodes ``0..p`` at ``t`` into ``W[row, :p+1]`` (prefix/suffix products)."""
     W[row, 0] = 1.0
@@ -119,7 +119,7 @@ def _weights(t, p, W, row):
         suffix *= t - j
 
 
-@hot
+@leaf
 def _stencil(kind, a, u, x0, h, n, p, W, row):
     """First node of the stencil around ``u`` on one axis; its weights go to ``W[row, :p+1]``.
 
@@ -134,7 +134,7 @@ def _stencil(kind, a, u, x0, h, n, p, W, row):
     return k
 
 
-@hot
+@leaf
 def _row18(a, w, v, q):
     """``a + w * v[q:q+18]`` for an 18-tuple ``a`` (one stencil row of a degree-5 table, in registers)."""
     return (

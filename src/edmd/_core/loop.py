@@ -85,7 +85,7 @@ def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf):
     ev[0][i] = INF
     ev[1][i] = -1
     if mode != NB_LIST:
-        _scan_cells(i, t, P, count, ev, grid, geo, cbuf, -1, 0)
+        _scan_cells(i, t, P, count, ev, grid, geo, cbuf, np.int64(-1), np.int64(0))
 
 
 @jit
@@ -506,7 +506,7 @@ def _make_loop(walls, emd_on, rough, normal, debug):
                     _requeue(q, ev, i)
                     continue
             else:
-                j = ev[1][i]
+                j = np.int64(ev[1][i])  # (one signature of the callees for both partners)
                 if count[j] != ev[2][i]:
                     cnt[L.C_STALE] += 1
                     j = i

@@ -13,14 +13,14 @@ the centres with cells of edge :math:`\\ge 2R_{\\max} + s`.
 
 import math
 
-from .jit import hot, jit
+from .jit import jit, leaf
 
 from .cells import cell_block, cell_insert, cell_of_point, cell_remove
 from .layout import G_GX, G_GY, G_GZ, G_ON, R, X, Y, Z
 from .predict import INF, flight, gap_time, sphere_exit_time, wrap3
 
 
-@hot
+@leaf
 def _drop(nbl, nbl_n, owner, i):
     """Remove ``i`` from the list of ``owner`` (swap with the last entry)."""
     n = nbl_n[owner] - 1
@@ -31,7 +31,7 @@ def _drop(nbl, nbl_n, owner, i):
             return
 
 
-@hot
+@leaf
 def _link_neighbours(i, P, grid, lists, geo, skin, cbuf, only_higher):
     """Add every ``j`` whose centre is within ``sigma_ij + skin`` of ``c_i`` to both lists.
 
@@ -63,7 +63,7 @@ def _link_neighbours(i, P, grid, lists, geo, skin, cbuf, only_higher):
     return True
 
 
-@hot
+@leaf
 def place_centre(i, P, grid, lists, geo):
     """Put ``i``'s list centre at its stored position and register it in the grid."""
     centre = lists[2]
@@ -101,7 +101,7 @@ def build_lists(P, grid, lists, geo, skin, cbuf):
     return True
 
 
-@hot
+@leaf
 def shell_exit_time(P, i, t, lists, geo, skin):
     r"""Time at which ``i`` leaves its shell: the ball of radius ``skin/2`` around its centre.
 

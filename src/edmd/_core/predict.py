@@ -7,14 +7,14 @@ All functions are plain ``@njit`` functions over scalars and the particle row ar
 import math
 
 import numpy as np
-from .jit import hot
+from .jit import leaf
 
 from .layout import G_GX, G_GY, G_GZ, G_HX, G_HY, G_HZ, G_LX, G_LY, G_LZ, G_ON, R, T, VX, VY, VZ, X, Y, Z
 
 INF = np.inf
 
 
-@hot
+@leaf
 def contact_time(dx, dy, dz, gx, gy, gz, sigma):
     r"""Time until the separation ``(dx, dy, dz)`` moving with ``(gx, gy, gz)`` shrinks to ``sigma``.
 
@@ -44,7 +44,7 @@ def contact_time(dx, dy, dz, gx, gy, gz, sigma):
     return t if b < 0.0 else INF
 
 
-@hot
+@leaf
 def wrap_delta(d, length, half):
     """Minimum-image shift of one separation component (``half = inf`` on open axes)."""
     if d > half:
@@ -54,7 +54,7 @@ def wrap_delta(d, length, half):
     return d
 
 
-@hot
+@leaf
 def wrap3(dx, dy, dz, geo):
     """Minimum image of a separation vector (see :func:`edmd._core.layout.make_geo`)."""
     return (
@@ -64,7 +64,7 @@ def wrap3(dx, dy, dz, geo):
     )
 
 
-@hot
+@leaf
 def flight(P, i, t, geo):
     """Position and velocity of particle ``i`` at time ``t`` (physics.md §1.1, free flight)."""
     dt = t - P[i, T]
@@ -83,7 +83,7 @@ def flight(P, i, t, geo):
     return x, y, z, vx, vy, vz
 
 
-@hot
+@leaf
 def advance(P, i, t, geo):
     """Stream the stored row of ``i`` to time ``t`` (lazy update, physics.md §1.1)."""
     x, y, z, vx, vy, vz = flight(P, i, t, geo)
@@ -96,7 +96,7 @@ def advance(P, i, t, geo):
     P[i, T] = t
 
 
-@hot
+@leaf
 def relative_to(xi, yi, zi, vxi, vyi, vzi, P, j, t, geo):
     """Minimum-image separation and relative velocity of a particle at ``(x_i, v_i)`` and ``j`` at time ``t``."""
     xj, yj, zj, vxj, vyj, vzj = flight(P, j, t, geo)
@@ -104,21 +104,21 @@ def relative_to(xi, yi, zi, vxi, vyi, vzi, P, j, t, geo):
     return dx, dy, dz, vxi - vxj, vyi - vyj, vzi - vzj
 
 
-@hot
+@leaf
 def separation(P, i, j, t, geo):
     """Minimum-image separation ``r_i(t) - r_j(t)`` and relative velocity ``v_i(t) - v_j(t)``."""
     xi, yi, zi, vxi, vyi, vzi = flight(P, i, t, geo)
     return relative_to(xi, yi, zi, vxi, vyi, vzi, P, j, t, geo)
 
 
-@hot
+@leaf
 def pair_time(P, i, j, t, geo):
     """Absolute time of the next contact of ``i`` and ``j`` seen from time ``t`` (``inf``: none)."""
     dx, dy, dz, gx, gy, gz = separation(P, i, j, t, geo)
     return t + contact_time(dx, dy, dz, gx, gy, gz, P[i, R] + P[j, R])
 
 
-@hot
+@leaf
 def gap_time(h0, u, a):
     r"""First time ``> 0`` at which the gap :math:`h(t) = h_0 + u t + a t^2/2` closes with :math:`\dot h < 0`.
 
@@ -153,7 +153,7 @@ def gap_time(h0, u, a):
     return 2.0 * h0 / (-u + math.sqrt(disc))
 
 
-@hot
+@leaf
 def sphere_exit_time(dx, dy, dz, vx, vy, vz, radius):
     r"""Time until a ballistic point at offset ``d`` from a centre leaves the ball of ``radius``.
 

@@ -12,13 +12,13 @@ State scalars: ``qi = [heap_size, current_bucket, nb]``, ``qf = [t_base, 1/w, w]
 """
 
 import numpy as np
-from .jit import hot, jit
+from .jit import hot, jit, leaf
 
 QI_SIZE, QI_CUR, QI_NB = 0, 1, 2
 QF_BASE, QF_INV, QF_WIDTH = 0, 1, 2
 
 
-@hot
+@leaf
 def _sift_up(heap, loc, key, pos):
     i = heap[pos]
     k = key[i]
@@ -34,7 +34,7 @@ def _sift_up(heap, loc, key, pos):
     loc[i] = pos
 
 
-@hot
+@leaf
 def _sift_down(heap, loc, key, pos, n):
     i = heap[pos]
     k = key[i]
@@ -59,7 +59,7 @@ def _sift_down(heap, loc, key, pos, n):
     loc[i] = pos
 
 
-@hot
+@leaf
 def _bucket_of(t, qi, qf):
     """Bucket index for key ``t``: ``-1`` means the heap, ``nb`` the overflow list."""
     x = (t - qf[QF_BASE]) * qf[QF_INV]
@@ -70,7 +70,7 @@ def _bucket_of(t, qi, qf):
     return qi[QI_NB]
 
 
-@hot
+@leaf
 def _link(nxt, prv, head, loc, i, b):
     """Put ``i`` at the head of the list of bucket ``b``."""
     h = head[b]
@@ -82,7 +82,7 @@ def _link(nxt, prv, head, loc, i, b):
     loc[i] = -2 - b
 
 
-@hot
+@leaf
 def _insert(q, i, t):
     key, loc, nxt, prv, head, heap, qi, qf = q
     key[i] = t

@@ -22,7 +22,7 @@ import math
 
 from .contact import MODEL_HERTZ
 from .dop853 import A, B, E3, E5, N_STAGES
-from .jit import hot, jit
+from .jit import jit, leaf
 
 #: step-size control of the embedded DOP853 pair (the values of Hairer's code and scipy)
 _SAFETY, _MIN_FACTOR, _MAX_FACTOR = 0.9, 0.2, 10.0
@@ -30,7 +30,7 @@ _MAX_STEP = 0.25
 _MAX_STEPS = 100000
 
 
-@hot
+@leaf
 def scaled_force(model, c, X, V):
     r"""Scaled normal force :math:`\tilde F` (physics.md §4.4 table), continued smoothly to ``X < 0``."""
     g = X + c * V
@@ -39,7 +39,7 @@ def scaled_force(model, c, X, V):
     return g
 
 
-@hot
+@leaf
 def _rhs(model, c, lam, cen, X, V):
     """Derivatives ``(X', V', psi')`` of the scaled polar ODE; ``cen = Lambda tan^2 alpha``."""
     q = 1.0 / (1.0 - lam * X)
@@ -47,7 +47,7 @@ def _rhs(model, c, lam, cen, X, V):
     return V, -scaled_force(model, c, X, V) - cen * q2 * q, q2
 
 
-@hot
+@leaf
 def _step(model, c, lam, cen, x0, v0, p0, h, K, rtol, atol):
     """One DOP853 step of size ``h`` from ``(x0, v0, p0)`` with ``K[0]`` = derivatives there.
 
@@ -148,7 +148,7 @@ def solve_scaled(model, c, lam, tan_a, rtol, K):
     return nan, nan, nan, nan, nan, nan
 
 
-@hot
+@leaf
 def _terminate(model, c, lam, tan_a, cen, t, x, v, p, g0, h, g1, K, rtol, atol):
     """Root of ``g = X + cX'`` inside the step ``[t, t + h]`` (``g(t) = g0 >= 0 >= g1``).
 
@@ -205,7 +205,7 @@ def dashpot_central(zeta):
     return tau, e, 2.0 * zeta * e
 
 
-@hot
+@leaf
 def lab_frame_update(r1, r2, v1, v2, m1, m2, sigma, Phi, D, eps_hat, out):
     r"""eMD* relocation and post-collisional velocities in the lab frame (physics.md §4.6).
 

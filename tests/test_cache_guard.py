@@ -1,0 +1,41 @@
+"""The per-module invalidation of the core's Numba cache (``edmd._core.guard_cache``)."""
+
+from edmd._core import fingerprints, guard_cache
+
+SOURCES = {
+    "loop": "from .collide import rule\nfrom .queue import top\n",
+    "collide": "from .predict import flight\nrule = 1\n",
+    "predict": "flight = 1\n",
+    "queue": "top = 1\n",
+}
+
+
+def test_a_change_reaches_every_module_that_depends_on_it():
+    before = fingerprints(SOURCES)
+    after = fingerprints({**SOURCES, "predict": "flight = 2\n"})
+    changed = {name for name in SOURCES if before[name] != after[name]}
+    assert changed == {"predict", "collide", "loop"}  # queue does not import predict
+
+
+def _package(tmp_path, sources):
+    for name, text in sources.items():
+        (tmp_path / f"{name}.py").write_text(text)
+    cache = tmp_path / "__pycache__"
+    cache.mkdir(exist_ok=True)
+    for name in sources:
+        (cache / f"{name}.f-1.py311.nbi").write_text("index")
+        (cache / f"{name}.f-1.py311.1.nbc").write_text("code")
+    return cache
+
+
+def test_only_the_stale_modules_lose_their_cache(tmp_path):
+    cache = _package(tmp_path, SOURCES)
+    guard_cache(tmp_path)  # first call: no stamp yet, every file is suspect
+    assert not list(cache.glob("*.nb[ic]"))
+    _package(tmp_path, SOURCES)
+    guard_cache(tmp_path)  # unchanged sources: the cache stays
+    assert len(list(cache.glob("*.nb[ic]"))) == 8
+    (tmp_path / "collide.py").write_text("from .predict import flight\nrule = 2\n")
+    guard_cache(tmp_path)
+    left = sorted({p.name.split(".")[0] for p in cache.glob("*.nb[ic]")})
+    assert left == ["predict", "queue"]
