@@ -76,7 +76,7 @@ def test_neighbour_lists_stay_symmetric_and_complete(dim):
     e = sim.engine
     assert e.cnt[L.C_REBUILD] > 1000
     nbl, nbl_n, centre = e.lists
-    P = e.part[0]
+    P = e.part.rows
     skin = e.fp[L.FP_SKIN]
     box, half = e.box, e.half
     sets = [set(nbl[i, : nbl_n[i]].tolist()) for i in range(s.n)]

@@ -78,3 +78,33 @@ def test_in_disk_cache_is_false_for_a_feature_set_never_compiled():
 def test_the_core_compiles_without_reference_counting():
     # the probe of _core/jit.py finds Numba's private `_nrt` option (4.7x faster calendar)
     assert loop_variant(*PLAIN).run_events.targetoptions.get("_nrt") is False
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("neighbours", ["list", "cells"])
+@pytest.mark.parametrize("kind", [L.AUX_WALL, L.AUX_B, 99])
+def test_an_event_kind_the_variant_lacks_stops_the_run_naming_it(dim, neighbours, kind):
+    # a wall or B event in a plain run was once handled as a shell exit or cell crossing
+    from edmd._core.queue import queue_update
+
+    state = edmd.maxwell_boltzmann(edmd.lattice(64 if dim == 3 else 36, 0.2, dim=dim), 1.0, seed=3)
+    sim = edmd.Simulation(state, engine={"neighbours": neighbours})
+    sim.run(max_events=50)
+    e = sim.engine
+    i = 5
+    now = float(e.acc[L.A_NOW])
+    e.ev.aux_t[i] = now
+    e.ev.aux_k[i] = kind
+    queue_update(e.q, i, now)
+    with pytest.raises(edmd.EngineError, match=f"particle {int(e.tag[i])} has an event of kind {kind} at t = .* plain event loop"):
+        sim.run(max_events=50)
+
+
+def test_no_bundle_is_indexed_by_number_in_the_core():
+    import re
+    from pathlib import Path
+
+    core = Path(L.__file__).parent
+    numeric = re.compile(r"(?<![\w.])(part|ev|q|grid|lists|emd)\[\d")
+    hits = [f"{src.name}:{k + 1}" for src in core.glob("*.py") for k, line in enumerate(src.read_text().splitlines()) if numeric.search(line)]
+    assert hits == []

@@ -4,7 +4,7 @@ from .checkpoint import Checkpoint, CheckpointError, read_checkpoint
 from .config import Config, ConfigError, load_config, parse_config
 from .contact import ContactError, Hertz, LinearDashpot
 from .dem import DEMSimulation
-from .engine import EngineOptions
+from .engine import CollapseError, EngineError, EngineOptions
 from .initial import lattice, maxwell_boltzmann, radii, random_packing
 from .simulation import Callback, Observer, Simulation, Totals
 from .state import State, StateError
@@ -17,10 +17,12 @@ __all__ = [
     "Callback",
     "Checkpoint",
     "CheckpointError",
+    "CollapseError",
     "Config",
     "ConfigError",
     "ContactError",
     "DEMSimulation",
+    "EngineError",
     "EngineOptions",
     "Hertz",
     "LinearDashpot",

@@ -39,6 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from ._core import lookup as _lk
+from ._core.bundles import EMDStarData
 from .contact import ContactModel, Hertz, LinearDashpot
 from .tables import RestitutionTable, default_table
 
@@ -126,8 +127,8 @@ def _load_table(tables: str, model: str) -> RestitutionTable | None:
     return tab
 
 
-def emd_bundle(n: int, rule: EMDStar | None, pending=None) -> tuple:
-    """The ``emd`` tuple of :mod:`edmd._core.emdstar` for ``n`` particles (internal order).
+def emd_bundle(n: int, rule: EMDStar | None, pending=None) -> EMDStarData:
+    """The ``emd`` bundle of :mod:`edmd._core.emdstar` for ``n`` particles (internal order).
 
     ``pending``: ``(dv (n, 3), t_b (n,), partner (n,))`` or ``None`` (nothing pending).
     """
@@ -138,7 +139,7 @@ def emd_bundle(n: int, rule: EMDStar | None, pending=None) -> tuple:
     values, ctab = np.ascontiguousarray(values, float), np.ascontiguousarray(ctab, float)
     tg, cgeo = tuple(float(x) for x in tg), tuple(float(x) for x in cgeo)
     scratch = (np.zeros(_lk.SCRATCH_SHAPE), np.zeros((13, 3)), np.zeros((9, 3)))
-    return (np.ascontiguousarray(dv, float), np.ascontiguousarray(tb, float), np.ascontiguousarray(pj, np.int32), values, tg, ctab, cgeo, *scratch)
+    return EMDStarData(np.ascontiguousarray(dv, float), np.ascontiguousarray(tb, float), np.ascontiguousarray(pj, np.int32), values, tg, ctab, cgeo, *scratch)
 
 
 __all__ = ["EMDStar", "EMDStarError", "TABLE_CHOICES", "emd_bundle"]

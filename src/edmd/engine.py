@@ -18,6 +18,7 @@ import math
 import numpy as np
 
 from ._core import layout as L
+from ._core.bundles import Lists, Particles, new_events
 from ._core.cells import new_grid
 from ._core.jit import in_disk_cache
 from ._core.loop import loop_variant
@@ -181,15 +182,9 @@ class Engine:
         image = np.zeros((n, 3), np.int32)
         image[:, : self.dim] = state.image[order]
         tlast = state.last_collision[order] - self.t_origin
-        self.part = (P, state.mass[order].copy(), omega, state.inertia[order].copy(), image, np.zeros(n, np.int32), tlast)
+        self.part = Particles(P, state.mass[order].copy(), omega, state.inertia[order].copy(), image, np.zeros(n, np.int32), tlast)
         self.emd = emd_bundle(n, self.emd_rule, self._pending_arrays(state, order))
-        self.ev = (
-            np.full(n, np.inf),
-            np.full(n, -1, np.int32),
-            np.zeros(n, np.int32),
-            np.full(n, np.inf),
-            np.zeros(n, np.int32),
-        )
+        self.ev = new_events(n)
         self._rebuild()
 
     def _pending_arrays(self, state: State, order: np.ndarray):
@@ -211,7 +206,7 @@ class Engine:
         nbl, nbl_n, centre = self.lists
         cap = int(nbl_n.max() * 1.25) + 4
         if cap < nbl.shape[1]:
-            self.lists = (np.ascontiguousarray(nbl[:, :cap]), nbl_n, centre)
+            self.lists = Lists(np.ascontiguousarray(nbl[:, :cap]), nbl_n, centre)
             self.list_capacity = cap
 
     def _spatial_order(self, pos):
@@ -232,21 +227,21 @@ class Engine:
             self.grid = new_grid(n, self.box, self.grid_cells)
             cap = max(self.list_capacity, 1) if self.mode == "list" else 1
             nl = n if self.mode == "list" else 1
-            self.lists = (np.zeros((nl, cap), np.int32), np.zeros(nl, np.int32), np.zeros((nl, 3)))
+            self.lists = Lists(np.zeros((nl, cap), np.int32), np.zeros(nl, np.int32), np.zeros((nl, 3)))
             if self.loop.setup_events(self.part, self.ev, self.grid, self.lists, geo, self.fp, self.ip, self.cbuf, self.emd, 0.0):
                 break
             self.list_capacity = int(self.list_capacity * 1.5) + 4
         if self.mode == "list":
             self._trim_lists()
-        keys = np.minimum(self.ev[0], self.ev[3])
+        keys = np.minimum(self.ev.pair_t, self.ev.aux_t)
         width, nb = calendar_shape(keys, 0.0, self.options.events_per_bucket)
         self.q = new_queue(n, nb)
         queue_build(self.q, keys, 0.0, width, nb)
         self.acc[L.A_NOW] = 0.0
         self.acc[L.A_LAST_T] = 0.0
-        committed = self.part[0][:, L.VX : L.VZ + 1] + self.emd[0]  # particles are all at local time 0
-        self.acc[L.A_KE] = 0.5 * float(self.part[1] @ np.sum(committed**2, axis=1))
-        self.acc[L.A_PX : L.A_PZ + 1] = self.part[1] @ committed
+        committed = self.part.rows[:, L.VX : L.VZ + 1] + self.emd.pending_dv  # particles are all at local time 0
+        self.acc[L.A_KE] = 0.5 * float(self.part.mass @ np.sum(committed**2, axis=1))
+        self.acc[L.A_PX : L.A_PZ + 1] = self.part.mass @ committed
         self.events_at_sync = int(self.cnt[L.C_EVENTS])
 
     # ------------------------------------------------------------------ running
@@ -299,6 +294,12 @@ class Engine:
                     f"debug check failed at t = {self.now!r}: particles {i} and {j} "
                     f"(relative contact error {self.acc[L.A_BAD]:.3g})"
                 )
+            elif status == L.ST_BAD_EVENT:
+                particle, kind = int(self.tag[self.cnt[L.C_BAD_I]]), int(self.cnt[L.C_BAD_J])
+                raise EngineError(
+                    f"particle {particle} has an event of kind {kind} at t = {self.now!r}, which the "
+                    f"{self.loop.name} event loop does not handle (a bug: please report it)"
+                )
             elif status != L.ST_EVENTS:
                 return status
 
@@ -342,7 +343,7 @@ class Engine:
     # ------------------------------------------------------------------ observation
     def stream(self, t: float):
         """Internal-order positions (wrapped), velocities and images at absolute time ``t``."""
-        pos, vel, image = stream_all(self.part[0], self.part[4], t - self.t_origin, self.geo)
+        pos, vel, image = stream_all(self.part.rows, self.part.image, t - self.t_origin, self.geo)
         return pos, vel, image
 
     def snapshot(self, t: float | None = None) -> State:
@@ -352,7 +353,7 @@ class Engine:
         inv = np.empty(self.n, np.int64)
         inv[self.tag] = np.arange(self.n)
         d = self.dim
-        P, mass, omega, inertia = self.part[0], self.part[1], self.part[2], self.part[3]
+        P, mass, omega, inertia = self.part.rows, self.part.mass, self.part.omega, self.part.inertia
         spin = omega[inv] if d == 3 else omega[inv, 2]
         return State(
             position=pos[inv, :d],
@@ -365,10 +366,10 @@ class Engine:
             inertia=inertia[inv],
             image=image[inv, :d],
             periodic=self.periodic,
-            last_collision=self.part[6][inv] + self.t_origin,
-            pending_velocity=self.emd[0][inv, :d],
-            pending_until=self.emd[1][inv] + self.t_origin,
-            pending_partner=np.where(self.emd[2][inv] >= 0, self.tag[np.maximum(self.emd[2][inv], 0)], -1),
+            last_collision=self.part.last_collision[inv] + self.t_origin,
+            pending_velocity=self.emd.pending_dv[inv, :d],
+            pending_until=self.emd.pending_until[inv] + self.t_origin,
+            pending_partner=np.where(self.emd.partner[inv] >= 0, self.tag[np.maximum(self.emd.partner[inv], 0)], -1),
             check_overlaps=False,
         )
 

@@ -1,8 +1,9 @@
 """Cell grid ("sectors", physics.md §1.4): binning, neighbour cells, face-crossing times.
 
-The grid is the tuple ``(head, nxt, cell, gi, gf)``: ``head[c]`` is the first particle of cell
-``c`` and ``nxt`` links the rest (singly linked, cells are small); ``cell[i]`` is the cell a
-particle is registered in; ``gi = [ncx, ncy, ncz]``; ``gf = [lx, ly, lz, 1/lx, 1/ly, 1/lz]``.
+The grid is :class:`.bundles.Grid` ``(head, link, cell, shape, size)``: ``head[c]`` is the first
+particle of cell ``c`` and ``link`` links the rest (singly linked, cells are small); ``cell[i]`` is
+the cell a particle is registered in; ``shape = [ncx, ncy, ncz]`` (``gi`` here);
+``size = [lx, ly, lz, 1/lx, 1/ly, 1/lz]`` (``gf``).
 The box spans ``[-L/2, L/2)`` on every axis. A periodic axis has at least three cells or
 exactly one (then the neighbour search does not look along it); an open axis any number.
 """
@@ -11,6 +12,7 @@ import math
 
 import numpy as np
 from .jit import leaf
+from .bundles import Grid
 
 from .predict import INF, gap_time
 
@@ -36,7 +38,7 @@ def new_grid(n, box, nc):
         length = box[k] if np.isfinite(box[k]) else 1.0
         gf[k] = length / nc[k]
         gf[3 + k] = 1.0 / gf[k]
-    return (
+    return Grid(
         np.full(int(np.prod(nc)), -1, np.int32),
         np.full(n, -1, np.int32),
         np.zeros(n, np.int32),
@@ -59,8 +61,8 @@ def _axis_cell(x, length, inv, nc):
 
 @leaf
 def cell_of_point(x, y, z, geo, grid):
-    gi = grid[3]
-    gf = grid[4]
+    gi = grid.shape
+    gf = grid.size
     cx = _axis_cell(x, geo[0], gf[3], gi[0])
     cy = _axis_cell(y, geo[1], gf[4], gi[1])
     cz = _axis_cell(z, geo[2], gf[5], gi[2])
@@ -69,7 +71,7 @@ def cell_of_point(x, y, z, geo, grid):
 
 @leaf
 def cell_insert(grid, i, c):
-    head, nxt, cell = grid[0], grid[1], grid[2]
+    head, nxt, cell = grid.head, grid.link, grid.cell
     nxt[i] = head[c]
     head[c] = i
     cell[i] = c
@@ -77,7 +79,7 @@ def cell_insert(grid, i, c):
 
 @leaf
 def cell_remove(grid, i):
-    head, nxt, cell = grid[0], grid[1], grid[2]
+    head, nxt, cell = grid.head, grid.link, grid.cell
     c = cell[i]
     k = head[c]
     if k == i:
@@ -121,7 +123,7 @@ def cell_block(grid, c, geo, out, axis, step):
     only cells whose particles were not candidates before (physics.md §1.4: the newly adjacent
     layer of :math:`3^{d-1}` cells).
     """
-    gi = grid[3]
+    gi = grid.shape
     nx, ny, nz = gi[0], gi[1], gi[2]
     cz = c % nz
     cy = (c // nz) % ny

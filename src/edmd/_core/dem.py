@@ -47,7 +47,7 @@ def build_list(pos, radius, geo, grid, skin, nbl, nbl_n, tch, cbuf):
     Returns ``False`` if a row of ``nbl`` overflows (the caller grows it and retries).
     """
     n = pos.shape[0]
-    head, nxt = grid[0], grid[1]
+    head, nxt = grid.head, grid.link
     head[:] = -1
     for i in range(n):
         cell_insert(grid, i, cell_of_point(pos[i, 0], pos[i, 1], pos[i, 2], geo, grid))
@@ -55,7 +55,7 @@ def build_list(pos, radius, geo, grid, skin, nbl, nbl_n, tch, cbuf):
     for i in range(n):
         xi, yi, zi, ri = pos[i, 0], pos[i, 1], pos[i, 2], radius[i]
         m = 0
-        nc = cell_block(grid, grid[2][i], geo, cbuf, -1, 0)
+        nc = cell_block(grid, grid.cell[i], geo, cbuf, -1, 0)
         for s in range(nc):
             j = head[cbuf[s]]
             while j >= 0:

@@ -7,7 +7,7 @@ centre-of-mass velocity :math:`\mathbf V`, store the post-collisional increments
 :math:`\mathbf v + \boldsymbol\Delta`). After both B events positions and velocities equal those
 of Newton's equations for the soft contact (physics.md §4.6).
 
-Pending contacts live in the bundle ``emd = (pdv, ptb, pj, values, tg, ctab, cgeo, W, K, work)``:
+Pending contacts live in the bundle ``emd`` (:class:`.bundles.EMDStarData`; short names here):
 
 * ``pdv (N, 3)``: pending increment :math:`\boldsymbol\Delta` (zero when nothing is pending);
 * ``ptb (N,)``: local time of the pending B event (``inf``: none);
@@ -30,13 +30,13 @@ from .twobody import lab_frame_update
 @hot
 def is_pending(emd, p):
     """Whether particle ``p`` has a pending B event."""
-    return emd[1][p] < INF
+    return emd.pending_until[p] < INF
 
 
 @hot
 def execute_b(p, t, P, count, emd, geo):
     r"""Event B of ``p`` at time ``t`` (on schedule, or early in exception b): :math:`\mathbf v \leftarrow \mathbf v(t) + \boldsymbol\Delta`."""
-    pdv, ptb, pj = emd[0], emd[1], emd[2]
+    pdv, ptb, pj = emd.pending_dv, emd.pending_until, emd.partner
     advance(P, p, t, geo)
     P[p, L.VX] += pdv[p, 0]
     P[p, L.VY] += pdv[p, 1]
@@ -68,7 +68,7 @@ def relocation_blocked(p, x, y, z, i, j, t, P, grid, geo, walls, cbuf):
     x, y, z = wrap3(x, y, z, geo)  # into the box: the point's own cell
     nc = cell_block(grid, cell_of_point(x, y, z, geo, grid), geo, cbuf, -1, 0)
     for s in range(nc):
-        k = grid[0][cbuf[s]]
+        k = grid.head[cbuf[s]]
         while k >= 0:
             if k != i and k != j:
                 kx, ky, kz, _vx, _vy, _vz = flight(P, k, t, geo)
@@ -79,7 +79,7 @@ def relocation_blocked(p, x, y, z, i, j, t, P, grid, geo, walls, cbuf):
                     ox, oy, oz = wrap3(P[p, L.X] - kx, P[p, L.Y] - ky, P[p, L.Z] - kz, geo)
                     if d2 < ox * ox + oy * oy + oz * oz:
                         return True
-            k = grid[1][k]
+            k = grid.link[k]
     return False
 
 
@@ -93,7 +93,7 @@ def contact_map(i, j, P, mass, geo, fp, ip, emd):
     duration (NaN if the solver failed) and the kinetic energy the pair loses,
     :math:`\tfrac12\mu\,[v_n^2 + v_t^2 - \hat\varepsilon^2v_n^2 - v_t^2/D^2]`.
     """
-    values, tg, ctab, cgeo, W, K, work = emd[3], emd[4], emd[5], emd[6], emd[7], emd[8], emd[9]
+    values, tg, ctab, cgeo, W, K, work = emd.values, emd.table_grid, emd.central, emd.central_grid, emd.weights, emd.solver, emd.work
     dx, dy, dz = wrap3(P[j, L.X] - P[i, L.X], P[j, L.Y] - P[i, L.Y], P[j, L.Z] - P[i, L.Z], geo)
     for k in range(3):
         work[0, k] = P[i, L.X + k]

@@ -16,14 +16,14 @@ def close_pairs(pos, radius, geo, grid, scale):
     ``pos[i] - pos[j]``.
     """
     n = pos.shape[0]
-    head, nxt = grid[0], grid[1]
+    head, nxt = grid.head, grid.link
     head[:] = -1
     for i in range(n):
         cell_insert(grid, i, cell_of_point(pos[i, 0], pos[i, 1], pos[i, 2], geo, grid))
     cbuf = np.empty(27, np.int32)
     ii, jj, dd = [], [], []
     for i in range(n):
-        nc = cell_block(grid, grid[2][i], geo, cbuf, -1, 0)
+        nc = cell_block(grid, grid.cell[i], geo, cbuf, -1, 0)
         for s in range(nc):
             j = head[cbuf[s]]
             while j >= 0:
@@ -63,7 +63,7 @@ def random_insert(radius, geo, grid, pos, uniforms, start, dim):
     particle that could not be placed in the attempts given (``start + len(uniforms)`` if all were).
     """
     n = start + uniforms.shape[0]
-    head, nxt = grid[0], grid[1]
+    head, nxt = grid.head, grid.link
     cbuf = np.empty(27, np.int32)
     for p in range(start, n):
         u = uniforms[p - start]
@@ -73,7 +73,7 @@ def random_insert(radius, geo, grid, pos, uniforms, start, dim):
                 span = geo[k] if geo[3 + k] < INF else geo[k] - 2.0 * radius[p]  # walls: stay inside
                 pos[p, k] = (u[a, k] - 0.5) * span if k < dim else 0.0
             c = cell_of_point(pos[p, 0], pos[p, 1], pos[p, 2], geo, grid)
-            grid[2][p] = c
+            grid.cell[p] = c
             ok = True
             nc = cell_block(grid, c, geo, cbuf, -1, 0)
             for s in range(nc):

@@ -14,7 +14,16 @@ AUX_NONE = 0
 AUX_SHELL = 1  # particle leaves the shell of its neighbour list
 AUX_CELL = 2  # cell crossing: AUX_CELL + 2 * axis + (0 lower face, 1 upper face)
 AUX_WALL = 8  # hard wall: AUX_WALL + 2 * axis + (0 lower wall, 1 upper wall)
+AUX_WALL_END = AUX_WALL + 6
 AUX_B = 64  # eMD* type-B event (the particle takes its post-collisional velocity)
+# Dispatch is explicit: every kind the loop knows is tested for, and any other code stops the
+# run with ST_BAD_EVENT (a new kind must be given its own branch, it can never fall into another's).
+
+# outcomes of a pair reaching contact under eMD* (loop._emd_contact)
+CONTACT_LIST_FULL = -1  # a neighbour list ran out of capacity while re-binning the pair
+CONTACT_DISCARDED = 0  # exception b) left the pair separating: nothing happens
+CONTACT_SOFT = 1  # an A event: the pair was relocated, its B events are pending
+CONTACT_INSTANT = 2  # the instantaneous rule (exception a, overlaps, a failed solve)
 
 # neighbour structure
 NB_LIST = 0
@@ -28,6 +37,7 @@ ST_LOG_FULL = 3  # the collision log buffer is full
 ST_IDLE = 4  # no particle has a future event
 ST_STALL = 5  # too many events at one instant (inelastic collapse / Zeno)
 ST_OVERLAP = 6  # debug mode found an overlap or a contact away from sigma
+ST_BAD_EVENT = 7  # an event of unknown kind (cnt[C_BAD_I] the particle, cnt[C_BAD_J] the kind)
 
 # Counters, accumulators and parameters are arrays indexed by the constants below. Each array
 # has a tuple of names in index order: checkpoints store the names with the values, so a

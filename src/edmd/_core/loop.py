@@ -12,9 +12,10 @@ Each particle holds two candidate events:
 The calendar key of the particle is ``min(pair_t, aux_t)`` (aux first at equal times).
 Particles are streamed lazily: only those taking part in an event are advanced.
 
-Array bundles (tuples, no objects): ``part = (P, mass, omega, inertia, image, count)``,
-``ev = (pair_t, pair_j, pair_c, aux_t, aux_k)``, ``q`` (see :mod:`.queue`), ``grid`` (see
-:mod:`.cells`), ``lists`` (see :mod:`.nblist`), ``geo`` (floats, see :func:`.layout.make_geo`).
+Array bundles are named tuples of :mod:`.bundles` (no objects): ``part`` (:class:`.Particles`),
+``ev`` (:class:`.Events`), ``q`` (:class:`.Calendar`), ``grid`` (:class:`.Grid`), ``lists``
+(:class:`.Lists`), ``emd`` (:class:`.EMDStarData`); ``geo`` is a tuple of floats
+(:func:`.layout.make_geo`).
 """
 
 from typing import Callable, NamedTuple
@@ -23,7 +24,7 @@ import numpy as np
 from .jit import hot, jit
 
 from . import layout as L
-from .layout import NB_LIST, NORMAL_SOFT, NORMAL_VISCO, TANGENT_SMOOTH
+from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTACT_SOFT, NB_LIST, NORMAL_SOFT, NORMAL_VISCO, TANGENT_SMOOTH
 from .cells import cell_block, cell_insert, cell_of_point, cell_remove, crossing_time
 from .collide import collide_pair, collide_wall
 from .emdstar import contact_map, execute_b, is_pending, relocation_blocked
@@ -34,9 +35,9 @@ from .queue import queue_top, queue_update
 
 @hot
 def _set_pair(ev, count, i, t, j):
-    ev[0][i] = t
-    ev[1][i] = j
-    ev[2][i] = count[j]
+    ev.pair_t[i] = t
+    ev.pair_j[i] = j
+    ev.pair_c[i] = count[j]
 
 
 @hot
@@ -52,12 +53,12 @@ def _closer(xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, best, bj):
 @jit
 def _scan_cells(i, t, P, count, ev, grid, geo, cbuf, axis, step):
     """Improve the pair event of ``i`` with the particles of a block of cells (see ``cell_block``)."""
-    head, nxt = grid[0], grid[1]
+    head, nxt = grid.head, grid.link
     xi, yi, zi, vxi, vyi, vzi = flight(P, i, t, geo)
     ri = P[i, L.R]
-    best = ev[0][i] - t
+    best = ev.pair_t[i] - t
     bj = -1
-    nc = cell_block(grid, grid[2][i], geo, cbuf, axis, step)
+    nc = cell_block(grid, grid.cell[i], geo, cbuf, axis, step)
     for s in range(nc):
         j = head[cbuf[s]]
         while j >= 0:
@@ -72,7 +73,7 @@ def _scan_cells(i, t, P, count, ev, grid, geo, cbuf, axis, step):
 def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf):
     """Full re-prediction of the earliest contact of ``i`` (neighbour list or 3^d cells)."""
     if mode == NB_LIST:
-        nbl, nbl_n = lists[0], lists[1]
+        nbl, nbl_n = lists.members, lists.size
         xi, yi, zi, vxi, vyi, vzi = flight(P, i, t, geo)
         ri = P[i, L.R]
         best = INF
@@ -82,8 +83,8 @@ def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf):
         if bj >= 0:
             _set_pair(ev, count, i, t + best, bj)
             return
-    ev[0][i] = INF
-    ev[1][i] = -1
+    ev.pair_t[i] = INF
+    ev.pair_j[i] = -1
     if mode != NB_LIST:
         _scan_cells(i, t, P, count, ev, grid, geo, cbuf, np.int64(-1), np.int64(0))
 
@@ -91,8 +92,8 @@ def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf):
 @jit
 def _crossing_event(i, t, P, ev, grid, geo):
     """Earliest cell-face crossing of ``i`` (physics.md §1.4)."""
-    gi, gf = grid[3], grid[4]
-    c = grid[2][i]
+    gi, gf = grid.shape, grid.size
+    c = grid.cell[i]
     ncy, ncz = gi[1], gi[2]
     coords = (c // (ncy * ncz), (c // ncz) % ncy, c % ncz)
     xs = flight(P, i, t, geo)
@@ -103,8 +104,8 @@ def _crossing_event(i, t, P, ev, grid, geo):
         if tk < best:
             best = tk
             kind = L.AUX_CELL + 2 * k + face
-    ev[3][i] = t + best
-    ev[4][i] = kind
+    ev.aux_t[i] = t + best
+    ev.aux_k[i] = kind
 
 
 @hot
@@ -130,23 +131,23 @@ def predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, s
     (when ``walls``; ``wall_axes`` has bit ``k`` set for axis ``k``), or its eMD* B event (``ptb``,
     when ``emd_on``)."""
     if mode == NB_LIST:
-        ev[3][i] = shell_exit_time(P, i, t, lists, geo, skin)
-        ev[4][i] = L.AUX_SHELL
+        ev.aux_t[i] = shell_exit_time(P, i, t, lists, geo, skin)
+        ev.aux_k[i] = L.AUX_SHELL
     else:
         _crossing_event(i, t, P, ev, grid, geo)
     if walls:
-        best, kind = _wall_event(i, t, P, geo, wall_axes, ev[3][i] - t, ev[4][i])
-        ev[3][i] = t + best
-        ev[4][i] = kind
-    if emd_on and ptb[i] < ev[3][i]:  # (hard spheres never touch ptb: no cache miss)
-        ev[3][i] = ptb[i]
-        ev[4][i] = L.AUX_B
+        best, kind = _wall_event(i, t, P, geo, wall_axes, ev.aux_t[i] - t, ev.aux_k[i])
+        ev.aux_t[i] = t + best
+        ev.aux_k[i] = kind
+    if emd_on and ptb[i] < ev.aux_t[i]:  # (hard spheres never touch ptb: no cache miss)
+        ev.aux_t[i] = ptb[i]
+        ev.aux_k[i] = L.AUX_B
 
 
 @hot
 def _requeue(q, ev, i):
-    a = ev[3][i]
-    p = ev[0][i]
+    a = ev.aux_t[i]
+    p = ev.pair_t[i]
     queue_update(q, i, a if a <= p else p)
 
 
@@ -178,17 +179,17 @@ def _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf, contact
         return True
     for p in (np.int64(i), np.int64(j)):
         if mode == NB_LIST:
-            for s in range(lists[1][p]):
-                if _bad_contact(p, lists[0][p, s], t, P, geo, tol, acc, cnt, False):
+            for s in range(lists.size[p]):
+                if _bad_contact(p, lists.members[p, s], t, P, geo, tol, acc, cnt, False):
                     return False
         else:
-            nc = cell_block(grid, grid[2][p], geo, cbuf, -1, 0)
+            nc = cell_block(grid, grid.cell[p], geo, cbuf, -1, 0)
             for s in range(nc):
-                k = grid[0][cbuf[s]]
+                k = grid.head[cbuf[s]]
                 while k >= 0:
                     if k != p and _bad_contact(p, k, t, P, geo, tol, acc, cnt, False):
                         return False
-                    k = grid[1][k]
+                    k = grid.link[k]
     return True
 
 
@@ -206,10 +207,10 @@ def _repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb)
 @jit
 def _cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf):
     """Move ``i`` into the neighbouring cell (by direction, never by flooring) and scan the new layer."""
-    gi = grid[3]
+    gi = grid.shape
     k = (kind - L.AUX_CELL) >> 1
     step = 1 if (kind - L.AUX_CELL) & 1 else -1
-    c = grid[2][i]
+    c = grid.cell[i]
     ny, nz = gi[1], gi[2]
     cx, cy, cz = c // (ny * nz), (c // nz) % ny, c % nz
     ck = (cx, cy, cz)[k] + step
@@ -285,11 +286,11 @@ def _rebin(p, t, P, image, grid, lists, geo, mode, fp, cbuf):
     _wrap_into_box(P, image, p, geo)
     if mode != NB_LIST:
         c = cell_of_point(P[p, L.X], P[p, L.Y], P[p, L.Z], geo, grid)
-        if c != grid[2][p]:
+        if c != grid.cell[p]:
             cell_remove(grid, p)
             cell_insert(grid, p, c)
         return True
-    centre = lists[2]
+    centre = lists.centre
     h = 0.5 * fp[L.FP_SKIN] / SQRT3
     dx, dy, dz = wrap3(P[p, L.X] - centre[p, 0], P[p, L.Y] - centre[p, 1], P[p, L.Z] - centre[p, 2], geo)
     if max(abs(dx), abs(dy), abs(dz)) <= h:
@@ -304,12 +305,12 @@ def _finish_contact(p, i, j, t, P, count, ev, q, grid, lists, geo, mode, fp, ip,
     Its pending B event is executed now and, with post-collisional communication, that of its
     former partner too (re-predicted here unless it is ``i`` or ``j``, which the caller handles).
     """
-    pj = emd[2]
+    pj = emd.partner
     other = pj[p]
     execute_b(p, t, P, count, emd, geo)
     if ip[L.IP_EMD_COMM] and other != i and other != j and pj[other] == p:
         execute_b(other, t, P, count, emd, geo)
-        _repredict(np.int64(other), t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd[1])
+        _repredict(np.int64(other), t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd.pending_until)
 
 
 @jit
@@ -318,14 +319,15 @@ def _emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt,
 
     Exception b) first: pending B events of either partner are executed now (and, with
     post-collisional communication, those of their former partners); if the pair no longer
-    approaches, the contact is discarded (returns 0). Then the A event: matrix of restitution,
+    approaches, the contact is discarded (``CONTACT_DISCARDED``). Then the A event: matrix of restitution,
     relocation unless it would overlap a third particle or a wall (exception a), pending
-    increments and B events at ``t + t_c`` (returns 1). Exception a), overlapping pairs and
-    failed solves fall back to the instantaneous rule with the contact law's central
-    :math:`e_n(v_n)` (returns 2). Returns ``-1`` if a neighbour list ran out of capacity.
+    increments and B events at ``t + t_c`` (``CONTACT_SOFT``). Exception a), overlapping pairs
+    and failed solves fall back to the instantaneous rule with the contact law's central
+    :math:`e_n(v_n)` (``CONTACT_INSTANT``). ``CONTACT_LIST_FULL`` if a neighbour list ran out of
+    capacity.
     """
     P, mass, omega, inertia, image, count, tlast = part
-    pdv, ptb, pj = emd[0], emd[1], emd[2]
+    pdv, ptb, pj = emd.pending_dv, emd.pending_until, emd.partner
     exception_b = is_pending(emd, i) or is_pending(emd, j)
     if exception_b:
         cnt[L.C_EMD_EXC_B] += 1
@@ -334,20 +336,20 @@ def _emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt,
                 _finish_contact(p, i, j, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd)
     dx, dy, dz, gx, gy, gz = separation(P, i, j, t, geo)
     if exception_b and dx * gx + dy * gy + dz * gz >= 0.0:
-        return 0
+        return CONTACT_DISCARDED
     sigma = P[i, L.R] + P[j, L.R]
     if dx * dx + dy * dy + dz * dz < (sigma * (1.0 - 1e-9)) ** 2:
-        return 2  # overlapping and approaching: no contact geometry to start from
+        return CONTACT_INSTANT  # overlapping and approaching: no contact geometry to start from
     tc, lost, vn, vt = contact_map(i, j, P, mass, geo, fp, ip, emd)
     if not tc == tc:
-        return 2
-    work = emd[9]
+        return CONTACT_INSTANT
+    work = emd.work
     walls = ip[L.IP_WALLS]
     if relocation_blocked(i, work[4, 0], work[4, 1], work[4, 2], i, j, t, P, grid, geo, walls, cbuf) or relocation_blocked(
         j, work[5, 0], work[5, 1], work[5, 2], i, j, t, P, grid, geo, walls, cbuf
     ):
         cnt[L.C_EMD_EXC_A] += 1
-        return 2
+        return CONTACT_INSTANT
     jn = 0.0  # virial r_ij . J with the impulse J on i over the whole contact
     for k in range(3):
         jk = mass[i] * (work[6, k] + work[7, k] - P[i, L.VX + k])
@@ -369,10 +371,10 @@ def _emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt,
     acc[L.A_EMD_VN] = vn
     acc[L.A_EMD_VT] = vt
     if not _rebin(i, t, P, image, grid, lists, geo, mode, fp, cbuf):
-        return -1
+        return CONTACT_LIST_FULL
     if not _rebin(j, t, P, image, grid, lists, geo, mode, fp, cbuf):
-        return -1
-    return 1
+        return CONTACT_LIST_FULL
+    return CONTACT_SOFT
 
 
 class Loop(NamedTuple):
@@ -446,8 +448,8 @@ def _make_loop(walls, emd_on, rough, normal, debug):
         and the matrix-of-restitution table (:mod:`.emdstar`).
         """
         P, mass, omega, inertia, image, count, tlast = part
-        ptb = emd[1]
-        key = q[0]
+        ptb = emd.pending_until
+        key = q.key
         mode = ip[L.IP_MODE]
         log_cap = ip[L.IP_LOG_CAP]
         total_mass = fp[L.FP_MTOT]
@@ -480,12 +482,12 @@ def _make_loop(walls, emd_on, rough, normal, debug):
             nrep = 1
             pair = True  # re-predict the pair event
             aux = True  # re-predict the single-particle event
-            if ev[3][i] <= ev[0][i]:
-                kind = ev[4][i]
+            if ev.aux_t[i] <= ev.pair_t[i]:
+                kind = ev.aux_k[i]
                 cnt[L.C_AUX] += 1
                 if emd_on and kind == L.AUX_B:
                     execute_b(i, t, P, count, emd, geo)
-                elif walls and kind >= L.AUX_WALL:
+                elif walls and kind >= L.AUX_WALL and kind < L.AUX_WALL_END:
                     if emd_on and is_pending(emd, i):  # a wall is a third body too: end the soft contact first
                         cnt[L.C_EMD_EXC_B] += 1
                         _finish_contact(i, i, -1, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd)
@@ -494,20 +496,25 @@ def _make_loop(walls, emd_on, rough, normal, debug):
                     collide_wall(t, P, mass, omega, inertia, tlast, i, (kind - L.AUX_WALL) >> 1, (kind - L.AUX_WALL) & 1, fp, ip, etab, acc)
                     count[i] += 1
                     cnt[L.C_WALL] += 1
-                elif mode == NB_LIST:  # the particle left the shell of its neighbour list
+                elif kind == L.AUX_SHELL:  # the particle left the shell of its neighbour list
                     advance(P, i, t, geo)
                     _wrap_into_box(P, image, i, geo)
                     cnt[L.C_REBUILD] += 1
                     if not rebuild_list(i, P, grid, lists, geo, skin, cbuf):
                         return L.ST_LIST_FULL
-                else:  # a cell crossing (the most frequent event of dilute gases): a path of its own
+                elif kind >= L.AUX_CELL and kind < L.AUX_WALL:  # a cell crossing (the most frequent
+                    # event of dilute gases): a path of its own
                     _cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf)
                     predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb)
                     _requeue(q, ev, i)
                     continue
+                else:  # no kind of this variant: a bug, never handled as another kind
+                    cnt[L.C_BAD_I], cnt[L.C_BAD_J] = i, kind
+                    cnt[L.C_EVENTS] -= 1
+                    return L.ST_BAD_EVENT
             else:
-                j = np.int64(ev[1][i])  # (one signature of the callees for both partners)
-                if count[j] != ev[2][i]:
+                j = np.int64(ev.pair_j[i])  # (one signature of the callees for both partners)
+                if count[j] != ev.pair_c[i]:
                     cnt[L.C_STALE] += 1
                     j = i
                     aux = False
@@ -520,23 +527,23 @@ def _make_loop(walls, emd_on, rough, normal, debug):
                     advance(P, i, t, geo)
                     advance(P, j, t, geo)
                     integrate_kinetic(acc, t, geo, total_mass)
-                    outcome = 2
+                    outcome = CONTACT_INSTANT
                     vn = vt = 0.0
                     if emd_on:
                         outcome = _emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt, cbuf, emd)
-                        if outcome < 0:
+                        if outcome == CONTACT_LIST_FULL:
                             return L.ST_LIST_FULL
-                        if outcome == 1:
+                        if outcome == CONTACT_SOFT:
                             vn, vt = acc[L.A_EMD_VN], acc[L.A_EMD_VT]
-                        elif outcome == 2:
+                        elif outcome == CONTACT_INSTANT:
                             cnt[L.C_EMD_FALLBACK] += 1
-                    if outcome == 2 and rough:
+                    if outcome == CONTACT_INSTANT and rough:
                         vn, vt = collide_pair(t, P, mass, omega, inertia, tlast, i, j, geo, fp, ip, etab, acc, cnt, ip[L.IP_TANGENT], normal)
-                    elif outcome == 2:
+                    elif outcome == CONTACT_INSTANT:
                         vn, vt = collide_pair(t, P, mass, omega, inertia, tlast, i, j, geo, fp, ip, etab, acc, cnt, TANGENT_SMOOTH, normal)
                     count[i] += 1
                     count[j] += 1
-                    if outcome != 0:
+                    if outcome != CONTACT_DISCARDED:
                         cnt[L.C_COLL] += 1
                         _log_collision(clog, cnt, log_cap, t, i, j, vn, vt)
                     # a path of its own (as crossings have): a site shared by several event kinds
@@ -568,8 +575,8 @@ def _make_setup(walls, emd_on):
 
         Returns ``False`` if a neighbour list ran out of capacity.
         """
-        P = part[0]
-        count = part[5]
+        P = part.rows
+        count = part.count
         mode = ip[L.IP_MODE]
         n = P.shape[0]
         skin = fp[L.FP_SKIN]
@@ -578,12 +585,12 @@ def _make_setup(walls, emd_on):
             if not build_lists(P, grid, lists, geo, skin, cbuf):
                 return False
         else:
-            grid[0][:] = -1
+            grid.head[:] = -1
             for i in range(n):
                 cell_insert(grid, i, cell_of_point(P[i, L.X], P[i, L.Y], P[i, L.Z], geo, grid))
         for i in range(n):
             predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
-            predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, emd[1])
+            predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, emd.pending_until)
         return True
 
     return setup_events

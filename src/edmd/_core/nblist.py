@@ -8,7 +8,7 @@ both are inside their shells are always listed. A rebuild moves only ``i``'s cen
 removed from its old neighbours' lists and added to its new ones, found through a cell grid over
 the centres with cells of edge :math:`\\ge 2R_{\\max} + s`.
 
-``lists = (nbl, nbl_n, centre)``: ``nbl[i, :nbl_n[i]]`` are the neighbours of ``i``.
+``lists`` (:class:`.bundles.Lists`, unpacked as ``nbl, nbl_n, centre``): ``nbl[i, :nbl_n[i]]`` are the neighbours of ``i``.
 """
 
 import math
@@ -39,11 +39,11 @@ def _link_neighbours(i, P, grid, lists, geo, skin, cbuf, only_higher):
     Returns ``False`` when a list is full.
     """
     nbl, nbl_n, centre = lists
-    head, nxt = grid[0], grid[1]
+    head, nxt = grid.head, grid.link
     cap = nbl.shape[1]
     cx, cy, cz = centre[i, 0], centre[i, 1], centre[i, 2]
     ri = P[i, R] + skin
-    nc = cell_block(grid, grid[2][i], geo, cbuf, -1, 0)
+    nc = cell_block(grid, grid.cell[i], geo, cbuf, -1, 0)
     for s in range(nc):
         j = head[cbuf[s]]
         while j >= 0:
@@ -66,7 +66,7 @@ def _link_neighbours(i, P, grid, lists, geo, skin, cbuf, only_higher):
 @leaf
 def place_centre(i, P, grid, lists, geo):
     """Put ``i``'s list centre at its stored position and register it in the grid."""
-    centre = lists[2]
+    centre = lists.centre
     centre[i, 0] = P[i, X]
     centre[i, 1] = P[i, Y]
     centre[i, 2] = P[i, Z]
@@ -88,9 +88,9 @@ def rebuild_list(i, P, grid, lists, geo, skin, cbuf):
 @jit
 def build_lists(P, grid, lists, geo, skin, cbuf):
     """Build all neighbour lists from scratch, centred at the stored positions."""
-    head = grid[0]
+    head = grid.head
     head[:] = -1
-    nbl_n = lists[1]
+    nbl_n = lists.size
     nbl_n[:] = 0
     n = P.shape[0]
     for i in range(n):
@@ -109,7 +109,7 @@ def shell_exit_time(P, i, t, lists, geo, skin):
     inscribed cube of half-edge :math:`s/(2\sqrt3)`, whose faces are the parabolic gap roots of
     physics.md §1.3 (the ball test would be a quartic).
     """
-    centre = lists[2]
+    centre = lists.centre
     x, y, z, vx, vy, vz = flight(P, i, t, geo)
     dx, dy, dz = wrap3(x - centre[i, 0], y - centre[i, 1], z - centre[i, 2], geo)
     if geo[G_ON] == 0.0:

@@ -8,11 +8,13 @@ redistributed when the calendar wraps. Each particle is in exactly one place:
 * ``loc[i] >= 0``: position in ``heap``;
 * ``loc[i] = -2 - b``: in bucket ``b`` (``b == nb`` is the overflow list).
 
-State scalars: ``qi = [heap_size, current_bucket, nb]``, ``qf = [t_base, 1/w, w]``.
+The arrays form :class:`.bundles.Calendar` (unpacked here as ``key, loc, nxt, prv, head, heap,
+qi, qf``). State scalars: ``qi = [heap_size, current_bucket, nb]``, ``qf = [t_base, 1/w, w]``.
 """
 
 import numpy as np
 from .jit import hot, jit, leaf
+from .bundles import Calendar
 
 QI_SIZE, QI_CUR, QI_NB = 0, 1, 2
 QF_BASE, QF_INV, QF_WIDTH = 0, 1, 2
@@ -214,7 +216,7 @@ def queue_build(q, keys, t_now, width, nb):
 
 def new_queue(n, nb):
     """Allocate the calendar arrays for ``n`` particles and ``nb`` buckets (tuple, see module doc)."""
-    return (
+    return Calendar(
         np.full(n, np.inf),
         np.zeros(n, np.int32),
         np.full(n, -1, np.int32),

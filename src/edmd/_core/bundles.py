@@ -1,0 +1,90 @@
+"""Named bundles of the core's arrays: what travels into the compiled functions, field by field.
+
+Each bundle is a :class:`typing.NamedTuple` of arrays (and, for the eMD* tables, float tuples).
+Numba types them as named tuples: a field is read by name (``ev.pair_t``) at no run-time cost,
+and unpacking keeps working. No numeric indexing of bundles is left in the core: a new field
+goes at the end of its bundle and everything that unpacks the whole bundle is updated with it.
+
+Example:
+    >>> import numpy as np
+    >>> ev = new_events(4)
+    >>> ev.pair_j.dtype, float(ev.aux_t[0])
+    (dtype('int32'), inf)
+"""
+
+from typing import NamedTuple
+
+import numpy as np
+
+
+class Particles(NamedTuple):
+    """The particles in internal (spatially sorted) order; times are local (see engine)."""
+
+    rows: np.ndarray  #: (N, ROW) float64: position, velocity, own time stamp, radius (layout.X...R)
+    mass: np.ndarray  #: (N,)
+    omega: np.ndarray  #: (N, 3) angular velocity
+    inertia: np.ndarray  #: (N,) moment of inertia
+    image: np.ndarray  #: (N, 3) int32 periodic image counters
+    count: np.ndarray  #: (N,) int32 event counter (validates partners' predictions)
+    last_collision: np.ndarray  #: (N,) local time of the last collision (TC model)
+
+
+class Events(NamedTuple):
+    """The two candidate events of each particle (Lubachevsky's scheme, physics.md §1.5)."""
+
+    pair_t: np.ndarray  #: (N,) time of the earliest predicted contact
+    pair_j: np.ndarray  #: (N,) int32 its partner (-1: none)
+    pair_c: np.ndarray  #: (N,) int32 the partner's event counter at prediction time
+    aux_t: np.ndarray  #: (N,) time of the single-particle event
+    aux_k: np.ndarray  #: (N,) int32 its kind (layout.AUX_*)
+
+
+class Grid(NamedTuple):
+    """Cells ("sectors", physics.md §1.4) as linked lists."""
+
+    head: np.ndarray  #: (cells,) int32 first particle of each cell (-1: empty)
+    link: np.ndarray  #: (N,) int32 next particle in the same cell (-1: last)
+    cell: np.ndarray  #: (N,) int32 cell of each particle
+    shape: np.ndarray  #: (3,) int64 cells per axis
+    size: np.ndarray  #: (6,) float64 cell lengths, then their inverses
+
+
+class Lists(NamedTuple):
+    """Verlet neighbour lists with a skin (physics.md §1.4)."""
+
+    members: np.ndarray  #: (N, capacity) int32 neighbours of each particle
+    size: np.ndarray  #: (N,) int32 how many
+    centre: np.ndarray  #: (N, 3) where each list was built (its shell's centre)
+
+
+class Calendar(NamedTuple):
+    """The event calendar (see :mod:`.queue`)."""
+
+    key: np.ndarray  #: (N,) event time of each particle
+    loc: np.ndarray  #: (N,) int32 bucket of each particle (or its heap slot)
+    link: np.ndarray  #: (N,) int32 next particle in the bucket
+    back: np.ndarray  #: (N,) int32 previous particle in the bucket
+    head: np.ndarray  #: (buckets + 1,) int32 first particle of each bucket (last: overflow)
+    heap: np.ndarray  #: (N,) int32 binary heap of the current bucket
+    ints: np.ndarray  #: (3,) int64 QI_* scalars
+    floats: np.ndarray  #: (3,) float64 QF_* scalars
+
+
+class EMDStarData(NamedTuple):
+    """Pending eMD* contacts and the matrix-of-restitution table (physics.md §4.8, :mod:`.emdstar`)."""
+
+    pending_dv: np.ndarray  #: (N, 3) pending velocity increment (zero: none)
+    pending_until: np.ndarray  #: (N,) local time of the pending B event (inf: none)
+    partner: np.ndarray  #: (N,) int32 partner of the pending contact (-1: none)
+    values: np.ndarray  #: lookup-table node values (:mod:`.lookup`)
+    table_grid: tuple  #: table geometry (floats)
+    central: np.ndarray  #: central-collision table
+    central_grid: tuple  #: its geometry (floats)
+    weights: np.ndarray  #: scratch of the table lookup (lookup.SCRATCH_SHAPE)
+    solver: np.ndarray  #: (13, 3) scratch of the direct two-body solver
+    work: np.ndarray  #: (9, 3) scratch of the lab-frame update (r1, r2, v1, v2, r1A, r2A, V, D1, D2)
+
+
+def new_events(n: int) -> Events:
+    """No event predicted yet for ``n`` particles."""
+    return Events(np.full(n, np.inf), np.full(n, -1, np.int32), np.zeros(n, np.int32), np.full(n, np.inf), np.zeros(n, np.int32))
