@@ -11,7 +11,7 @@ exactly one (then the neighbour search does not look along it); an open axis any
 import math
 
 import numpy as np
-from .jit import leaf
+from .jit import jit, leaf
 from .bundles import Grid
 
 from .predict import INF, gap_time
@@ -75,6 +75,14 @@ def cell_insert(grid, i, c):
     nxt[i] = head[c]
     head[c] = i
     cell[i] = c
+
+
+@jit
+def bin_all(pos, geo, grid):
+    """Empty ``grid`` and bin every particle by the first three columns of ``pos`` (x, y, z)."""
+    grid.head[:] = -1
+    for i in range(pos.shape[0]):
+        cell_insert(grid, i, cell_of_point(pos[i, 0], pos[i, 1], pos[i, 2], geo, grid))
 
 
 @leaf
@@ -148,6 +156,49 @@ def cell_block(grid, c, geo, out, axis, step):
                 out[n] = (x2 * ny + y2) * nz + z2
                 n += 1
     return n
+
+
+@leaf
+def _walk_from(head, cbuf, nc, s):
+    """The cursor at the first particle of the cells ``cbuf[s:nc]`` (``j = -1``: none left)."""
+    while s < nc:
+        j = head[cbuf[s]]
+        if j >= 0:
+            return nc, s, j
+        s += 1
+    return nc, s, -1
+
+
+@leaf
+def walk_cells(grid, c, geo, cbuf, axis, step):
+    """Start a walk over the particles of the cells :func:`cell_block` gives for ``c``.
+
+    The one way the core visits cell neighbours: returns a cursor ``(nc, s, j)`` whose ``j`` is
+    the first particle (``-1``: there is none), and :func:`walk_next` moves it on::
+
+        nc, s, j = walk_around(grid, c, geo, cbuf)
+        while j >= 0:
+            ...  # visit j
+            nc, s, j = walk_next(grid, cbuf, nc, s, j)
+
+    ``cbuf`` (27 int32) holds the cells during the walk.
+    """
+    return _walk_from(grid.head, cbuf, cell_block(grid, c, geo, cbuf, axis, step), 0)
+
+
+@leaf
+def walk_around(grid, c, geo, cbuf):
+    """:func:`walk_cells` over the full neighbourhood of ``c`` (itself included)."""
+    return walk_cells(grid, c, geo, cbuf, np.int64(-1), np.int64(0))
+
+
+@leaf
+def walk_next(grid, cbuf, nc, s, j):
+    """The cursor after particle ``j`` (see :func:`walk_cells`)."""
+    k = grid.link[j]
+    if k >= 0:
+        return nc, s, k
+    return _walk_from(grid.head, cbuf, nc, s + 1)
 
 
 @leaf

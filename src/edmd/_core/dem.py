@@ -27,7 +27,7 @@ trapezoidal time integrals of kinetic energy, virial and dissipated power.
 
 import math
 
-from .cells import cell_block, cell_insert, cell_of_point
+from .cells import bin_all, walk_around, walk_next
 from .contact import MODEL_HERTZ, contact_force
 from .jit import jit, leaf
 from .layout import C_COLL, C_EVENTS, C_REBUILD, ST_EVENTS, ST_LIST_FULL
@@ -47,30 +47,25 @@ def build_list(pos, radius, geo, grid, skin, nbl, nbl_n, tch, cbuf):
     Returns ``False`` if a row of ``nbl`` overflows (the caller grows it and retries).
     """
     n = pos.shape[0]
-    head, nxt = grid.head, grid.link
-    head[:] = -1
-    for i in range(n):
-        cell_insert(grid, i, cell_of_point(pos[i, 0], pos[i, 1], pos[i, 2], geo, grid))
+    bin_all(pos, geo, grid)
     cap = nbl.shape[1]
     for i in range(n):
         xi, yi, zi, ri = pos[i, 0], pos[i, 1], pos[i, 2], radius[i]
         m = 0
-        nc = cell_block(grid, grid.cell[i], geo, cbuf, -1, 0)
-        for s in range(nc):
-            j = head[cbuf[s]]
-            while j >= 0:
-                if j > i:
-                    dx, dy, dz = wrap3(xi - pos[j, 0], yi - pos[j, 1], zi - pos[j, 2], geo)
-                    r2 = dx * dx + dy * dy + dz * dz
-                    sig = ri + radius[j]
-                    cut = sig + skin
-                    if r2 < cut * cut:
-                        if m >= cap:
-                            return False
-                        nbl[i, m] = j
-                        tch[i, m] = 1 if r2 < sig * sig else 0
-                        m += 1
-                j = nxt[j]
+        nc, s, j = walk_around(grid, grid.cell[i], geo, cbuf)
+        while j >= 0:
+            if j > i:
+                dx, dy, dz = wrap3(xi - pos[j, 0], yi - pos[j, 1], zi - pos[j, 2], geo)
+                r2 = dx * dx + dy * dy + dz * dz
+                sig = ri + radius[j]
+                cut = sig + skin
+                if r2 < cut * cut:
+                    if m >= cap:
+                        return False
+                    nbl[i, m] = j
+                    tch[i, m] = 1 if r2 < sig * sig else 0
+                    m += 1
+            nc, s, j = walk_next(grid, cbuf, nc, s, j)
         nbl_n[i] = m
     return True
 

@@ -20,7 +20,7 @@ Pending contacts live in the bundle ``emd`` (:class:`.bundles.EMDStarData`; shor
 import math
 
 from . import layout as L
-from .cells import cell_block, cell_of_point
+from .cells import cell_of_point, walk_around, walk_next
 from .jit import hot, jit
 from .lookup import matrix_of_restitution
 from .predict import INF, advance, flight, wrap3
@@ -66,20 +66,18 @@ def relocation_blocked(p, x, y, z, i, j, t, P, grid, geo, walls, cbuf):
         if walls & (1 << k) and abs(new[k]) + r > 0.5 * geo[k]:
             return True
     x, y, z = wrap3(x, y, z, geo)  # into the box: the point's own cell
-    nc = cell_block(grid, cell_of_point(x, y, z, geo, grid), geo, cbuf, -1, 0)
-    for s in range(nc):
-        k = grid.head[cbuf[s]]
-        while k >= 0:
-            if k != i and k != j:
-                kx, ky, kz, _vx, _vy, _vz = flight(P, k, t, geo)
-                dx, dy, dz = wrap3(x - kx, y - ky, z - kz, geo)
-                sig = r + P[k, L.R]
-                d2 = dx * dx + dy * dy + dz * dz
-                if d2 < sig * sig:
-                    ox, oy, oz = wrap3(P[p, L.X] - kx, P[p, L.Y] - ky, P[p, L.Z] - kz, geo)
-                    if d2 < ox * ox + oy * oy + oz * oz:
-                        return True
-            k = grid.link[k]
+    nc, s, k = walk_around(grid, cell_of_point(x, y, z, geo, grid), geo, cbuf)
+    while k >= 0:
+        if k != i and k != j:
+            kx, ky, kz, _vx, _vy, _vz = flight(P, k, t, geo)
+            dx, dy, dz = wrap3(x - kx, y - ky, z - kz, geo)
+            sig = r + P[k, L.R]
+            d2 = dx * dx + dy * dy + dz * dz
+            if d2 < sig * sig:
+                ox, oy, oz = wrap3(P[p, L.X] - kx, P[p, L.Y] - ky, P[p, L.Z] - kz, geo)
+                if d2 < ox * ox + oy * oy + oz * oz:
+                    return True
+        nc, s, k = walk_next(grid, cbuf, nc, s, k)
     return False
 
 

@@ -3,7 +3,7 @@
 import numpy as np
 from .jit import jit_alloc
 
-from .cells import cell_block, cell_insert, cell_of_point
+from .cells import bin_all, cell_insert, cell_of_point, walk_around, walk_next
 from .predict import INF, wrap3
 
 
@@ -16,26 +16,21 @@ def close_pairs(pos, radius, geo, grid, scale):
     ``pos[i] - pos[j]``.
     """
     n = pos.shape[0]
-    head, nxt = grid.head, grid.link
-    head[:] = -1
-    for i in range(n):
-        cell_insert(grid, i, cell_of_point(pos[i, 0], pos[i, 1], pos[i, 2], geo, grid))
+    bin_all(pos, geo, grid)
     cbuf = np.empty(27, np.int32)
     ii, jj, dd = [], [], []
     for i in range(n):
-        nc = cell_block(grid, grid.cell[i], geo, cbuf, -1, 0)
-        for s in range(nc):
-            j = head[cbuf[s]]
-            while j >= 0:
-                if j > i:
-                    dx, dy, dz = wrap3(pos[i, 0] - pos[j, 0], pos[i, 1] - pos[j, 1], pos[i, 2] - pos[j, 2], geo)
-                    sig = scale * (radius[i] + radius[j])
-                    r2 = dx * dx + dy * dy + dz * dz
-                    if r2 < sig * sig:
-                        ii.append(i)
-                        jj.append(j)
-                        dd.append((dx, dy, dz, np.sqrt(r2)))
-                j = nxt[j]
+        nc, s, j = walk_around(grid, grid.cell[i], geo, cbuf)
+        while j >= 0:
+            if j > i:
+                dx, dy, dz = wrap3(pos[i, 0] - pos[j, 0], pos[i, 1] - pos[j, 1], pos[i, 2] - pos[j, 2], geo)
+                sig = scale * (radius[i] + radius[j])
+                r2 = dx * dx + dy * dy + dz * dz
+                if r2 < sig * sig:
+                    ii.append(i)
+                    jj.append(j)
+                    dd.append((dx, dy, dz, np.sqrt(r2)))
+            nc, s, j = walk_next(grid, cbuf, nc, s, j)
     d = np.empty((len(dd), 4))
     for k in range(len(dd)):
         d[k, 0], d[k, 1], d[k, 2], d[k, 3] = dd[k]
@@ -63,7 +58,6 @@ def random_insert(radius, geo, grid, pos, uniforms, start, dim):
     particle that could not be placed in the attempts given (``start + len(uniforms)`` if all were).
     """
     n = start + uniforms.shape[0]
-    head, nxt = grid.head, grid.link
     cbuf = np.empty(27, np.int32)
     for p in range(start, n):
         u = uniforms[p - start]
@@ -75,17 +69,14 @@ def random_insert(radius, geo, grid, pos, uniforms, start, dim):
             c = cell_of_point(pos[p, 0], pos[p, 1], pos[p, 2], geo, grid)
             grid.cell[p] = c
             ok = True
-            nc = cell_block(grid, c, geo, cbuf, -1, 0)
-            for s in range(nc):
-                j = head[cbuf[s]]
-                while j >= 0 and ok:
-                    dx, dy, dz = wrap3(pos[p, 0] - pos[j, 0], pos[p, 1] - pos[j, 1], pos[p, 2] - pos[j, 2], geo)
-                    sig = radius[p] + radius[j]
-                    if dx * dx + dy * dy + dz * dz < sig * sig:
-                        ok = False
-                    j = nxt[j]
-                if not ok:
+            nc, s, j = walk_around(grid, c, geo, cbuf)
+            while j >= 0:
+                dx, dy, dz = wrap3(pos[p, 0] - pos[j, 0], pos[p, 1] - pos[j, 1], pos[p, 2] - pos[j, 2], geo)
+                sig = radius[p] + radius[j]
+                if dx * dx + dy * dy + dz * dz < sig * sig:
+                    ok = False
                     break
+                nc, s, j = walk_next(grid, cbuf, nc, s, j)
             if ok:
                 cell_insert(grid, p, c)
                 break

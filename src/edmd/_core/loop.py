@@ -25,7 +25,7 @@ from .jit import hot, jit
 
 from . import layout as L
 from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTACT_SOFT, NB_LIST, NORMAL_SOFT, NORMAL_VISCO, TANGENT_SMOOTH
-from .cells import cell_block, cell_insert, cell_of_point, cell_remove, crossing_time
+from .cells import bin_all, cell_insert, cell_of_point, cell_remove, crossing_time, walk_around, walk_cells, walk_next
 from .collide import collide_pair, collide_wall
 from .emdstar import contact_map, execute_b, is_pending, relocation_blocked
 from .nblist import SQRT3, build_lists, rebuild_list, shell_exit_time
@@ -53,18 +53,15 @@ def _closer(xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, best, bj):
 @jit
 def _scan_cells(i, t, P, count, ev, grid, geo, cbuf, axis, step):
     """Improve the pair event of ``i`` with the particles of a block of cells (see ``cell_block``)."""
-    head, nxt = grid.head, grid.link
     xi, yi, zi, vxi, vyi, vzi = flight(P, i, t, geo)
     ri = P[i, L.R]
     best = ev.pair_t[i] - t
     bj = -1
-    nc = cell_block(grid, grid.cell[i], geo, cbuf, axis, step)
-    for s in range(nc):
-        j = head[cbuf[s]]
-        while j >= 0:
-            if j != i:
-                best, bj = _closer(xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, best, bj)
-            j = nxt[j]
+    nc, s, j = walk_cells(grid, grid.cell[i], geo, cbuf, axis, step)
+    while j >= 0:
+        if j != i:
+            best, bj = _closer(xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, best, bj)
+        nc, s, j = walk_next(grid, cbuf, nc, s, j)
     if bj >= 0:
         _set_pair(ev, count, i, t + best, bj)
 
@@ -183,13 +180,11 @@ def _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf, contact
                 if _bad_contact(p, lists.members[p, s], t, P, geo, tol, acc, cnt, False):
                     return False
         else:
-            nc = cell_block(grid, grid.cell[p], geo, cbuf, -1, 0)
-            for s in range(nc):
-                k = grid.head[cbuf[s]]
-                while k >= 0:
-                    if k != p and _bad_contact(p, k, t, P, geo, tol, acc, cnt, False):
-                        return False
-                    k = grid.link[k]
+            nc, s, k = walk_around(grid, grid.cell[p], geo, cbuf)
+            while k >= 0:
+                if k != p and _bad_contact(p, k, t, P, geo, tol, acc, cnt, False):
+                    return False
+                nc, s, k = walk_next(grid, cbuf, nc, s, k)
     return True
 
 
@@ -585,9 +580,7 @@ def _make_setup(walls, emd_on):
             if not build_lists(P, grid, lists, geo, skin, cbuf):
                 return False
         else:
-            grid.head[:] = -1
-            for i in range(n):
-                cell_insert(grid, i, cell_of_point(P[i, L.X], P[i, L.Y], P[i, L.Z], geo, grid))
+            bin_all(P, geo, grid)
         for i in range(n):
             predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
             predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, emd.pending_until)

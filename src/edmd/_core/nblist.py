@@ -15,7 +15,7 @@ import math
 
 from .jit import jit, leaf
 
-from .cells import cell_block, cell_insert, cell_of_point, cell_remove
+from .cells import cell_insert, cell_of_point, cell_remove, walk_around, walk_next
 from .layout import G_GX, G_GY, G_GZ, G_ON, R, X, Y, Z
 from .predict import INF, flight, gap_time, sphere_exit_time, wrap3
 
@@ -39,27 +39,24 @@ def _link_neighbours(i, P, grid, lists, geo, skin, cbuf, only_higher):
     Returns ``False`` when a list is full.
     """
     nbl, nbl_n, centre = lists
-    head, nxt = grid.head, grid.link
     cap = nbl.shape[1]
     cx, cy, cz = centre[i, 0], centre[i, 1], centre[i, 2]
     ri = P[i, R] + skin
-    nc = cell_block(grid, grid.cell[i], geo, cbuf, -1, 0)
-    for s in range(nc):
-        j = head[cbuf[s]]
-        while j >= 0:
-            if j != i and (j > i or not only_higher):
-                dx, dy, dz = wrap3(cx - centre[j, 0], cy - centre[j, 1], cz - centre[j, 2], geo)
-                lim = ri + P[j, R]
-                if dx * dx + dy * dy + dz * dz < lim * lim:
-                    ni = nbl_n[i]
-                    nj = nbl_n[j]
-                    if ni >= cap or nj >= cap:
-                        return False
-                    nbl[i, ni] = j
-                    nbl_n[i] = ni + 1
-                    nbl[j, nj] = i
-                    nbl_n[j] = nj + 1
-            j = nxt[j]
+    nc, s, j = walk_around(grid, grid.cell[i], geo, cbuf)
+    while j >= 0:
+        if j != i and (j > i or not only_higher):
+            dx, dy, dz = wrap3(cx - centre[j, 0], cy - centre[j, 1], cz - centre[j, 2], geo)
+            lim = ri + P[j, R]
+            if dx * dx + dy * dy + dz * dz < lim * lim:
+                ni = nbl_n[i]
+                nj = nbl_n[j]
+                if ni >= cap or nj >= cap:
+                    return False
+                nbl[i, ni] = j
+                nbl_n[i] = ni + 1
+                nbl[j, nj] = i
+                nbl_n[j] = nj + 1
+        nc, s, j = walk_next(grid, cbuf, nc, s, j)
     return True
 
 
