@@ -10,10 +10,12 @@ from .simulation import Callback, Observer, Simulation, Totals
 from .state import State, StateError
 from .sweeps import SweepError, SweepResult, SweepSpec, sweep, sweep_summary
 from .thermo import Thermo, read_thermo
+from .thermostats import Andersen
 from .trajectory import Trajectory, read_state, write_state
 from .updaters import Updater, VelocityRescale, WhiteNoise
 
 __all__ = [
+    "Andersen",
     "Callback",
     "Checkpoint",
     "CheckpointError",

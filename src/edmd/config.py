@@ -18,6 +18,7 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from . import collide
+from .thermostats import Andersen
 
 
 class ConfigError(ValueError):
@@ -298,6 +299,18 @@ class ContactConfig(_Section):
         return _build_soft_law(self.model, self, mass)
 
 
+class ThermostatConfig(_Section):
+    """``[thermostat]``: a heat bath acting through events (see :class:`edmd.Andersen`)."""
+
+    kind: Literal["andersen"] = Field(description="andersen: each particle's velocity is drawn anew at Poisson times")
+    kT: float = Field(gt=0, allow_inf_nan=False, description="bath temperature")
+    rate: float = Field(gt=0, allow_inf_nan=False, description="rate of each particle's bath events")
+    seed: int = Field(0, ge=0, lt=2**63, description="random seed of the bath")
+
+    def build(self) -> Andersen:
+        return Andersen(kT=self.kT, rate=self.rate, seed=self.seed)
+
+
 class OutputConfig(_Section):
     """``[output]``: which files the run directory gets."""
 
@@ -329,6 +342,7 @@ class Config(_Section):
     output: OutputConfig = OutputConfig()
     integrator: IntegratorConfig = IntegratorConfig()
     contact: ContactConfig | None = None
+    thermostat: ThermostatConfig | None = None
 
     @model_validator(mode="after")
     def _integrator(self):
@@ -339,6 +353,8 @@ class Config(_Section):
                 raise ValueError("the DEM takes its dissipation from [contact]; leave [collision] at rule = 'elastic' (no tc)")
             if self.walls.axes:
                 raise ValueError("the DEM needs a periodic box: leave walls.axes empty")
+            if self.thermostat is not None:
+                raise ValueError("[thermostat] acts through events: it needs integrator.kind = 'edmd'")
         elif self.contact is not None:
             raise ValueError("[contact] is used by integrator.kind = 'dem' only")
         return self
@@ -519,6 +535,12 @@ checkpoint = true         # checkpoint.gsd: continue with `edmd run --restart DI
 # checkpoint_interval = 10.0       # simulation time between checkpoint points (default: output_interval)
 # checkpoint_wall_interval = 600   # write a point only if this many seconds passed since the last write
 plots = true              # PNG figures at the end of the run (also: `edmd plot DIR`)
+
+# [thermostat]            # a heat bath (edmd integrator only)
+# kind = "andersen"       # each particle's velocity (and spin) drawn anew from Maxwell-Boltzmann at kT
+# kT = 1.0                #   at the times of its own Poisson process of this rate
+# rate = 0.1
+# seed = 0
 
 [integrator]
 kind = "edmd"             # "edmd" (event-driven, hard particles) or "dem" (force-based, soft contacts)

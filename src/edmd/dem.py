@@ -81,11 +81,12 @@ class DEMEngine:
 
     Offers the interface :class:`~edmd.simulation.Simulation` expects of an engine: ``advance``,
     ``now``, ``snapshot``, ``load``, ``kinetic_integral``, the counters ``cnt`` and the
-    accumulators ``acc``; it has no eMD* rule (``emd_rule``).
+    accumulators ``acc``; it has no eMD* rule (``emd_rule``) and no thermostat.
     """
 
     mode = "dem"
     emd_rule = None
+    thermostat = None
 
     def __init__(self, state: State, contact: ContactModel, dt: float, skin: float, gravity=None):
         if not np.all(state.periodic):

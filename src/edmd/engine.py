@@ -18,7 +18,8 @@ import math
 import numpy as np
 
 from ._core import layout as L
-from ._core.bundles import Lists, Particles, new_events
+from ._core.bath import bath_schedule
+from ._core.bundles import Bath, Lists, Particles, new_events
 from ._core.cells import new_grid
 from ._core.jit import in_disk_cache
 from ._core.loop import loop_variant
@@ -82,7 +83,7 @@ class CollapseError(EngineError):
 class Engine:
     """Compiled-core arrays of one system (internal; see :class:`edmd.Simulation`)."""
 
-    def __init__(self, state: State, options: EngineOptions | None = None, rule=None, wall=None, gravity=None):
+    def __init__(self, state: State, options: EngineOptions | None = None, rule=None, wall=None, gravity=None, thermostat=None):
         self.options = options or EngineOptions()
         self.dim = state.dim
         self.n = state.n
@@ -102,6 +103,9 @@ class Engine:
         self.wall = collide.default_wall(self.rule) if wall is None else wall
         self.emd_rule = self.rule if isinstance(self.rule, EMDStar) else None
         collide.pack(self.rule, self.wall, self.fp, self.ip)
+        self.thermostat = thermostat
+        if thermostat is not None:
+            thermostat.pack(self.fp, self.ip)
         self.etab = collide.viscoelastic_table()[0]
         self.ip[L.IP_WALLS] = sum(1 << k for k in range(self.dim) if not self.periodic[k])
         self.ip[L.IP_MAXSTALL] = 2 * self.n + 1000
@@ -118,7 +122,12 @@ class Engine:
         ip = self.ip
         #: the event loop compiled for this system's features only (see :func:`loop_variant`)
         self.loop = loop_variant(
-            ip[L.IP_WALLS] != 0, self.emd_rule is not None, ip[L.IP_TANGENT] != L.TANGENT_SMOOTH, ip[L.IP_NORMAL], self.options.debug
+            ip[L.IP_WALLS] != 0,
+            self.emd_rule is not None,
+            ip[L.IP_TANGENT] != L.TANGENT_SMOOTH,
+            ip[L.IP_NORMAL],
+            self.options.debug,
+            thermostat is not None,
         )
         if not self.loop.run_events.signatures and not in_disk_cache(self.loop.run_events):
             log.info("compiling the event loop for %s runs (once; cached afterwards, see `edmd compile`)", self.loop.name)
@@ -185,7 +194,19 @@ class Engine:
         self.part = Particles(P, state.mass[order].copy(), omega, state.inertia[order].copy(), image, np.zeros(n, np.int32), tlast)
         self.emd = emd_bundle(n, self.emd_rule, self._pending_arrays(state, order))
         self.ev = new_events(n)
+        self.bath = self._new_bath()
         self._rebuild()
+
+    def _new_bath(self) -> Bath:
+        """The heat bath's events after a load at ``t_origin`` (no bath: every time ``inf``)."""
+        axes = np.zeros((2, 3), np.int64)
+        axes[0, : self.dim] = 1
+        axes[1, 2 if self.dim == 2 else 0 :] = 1  # disks spin about z only
+        epoch = np.array([self.t_origin]).view(np.uint64)[0]
+        bath = Bath(np.full(self.n, np.inf), np.array([self.ip[L.IP_BATH_SEED], epoch], np.uint64), axes)
+        if self.thermostat is not None:
+            bath_schedule(bath, self.fp[L.FP_BATH_RATE])
+        return bath
 
     def _pending_arrays(self, state: State, order: np.ndarray):
         """Pending eMD* contacts of ``state`` in internal order (``None``: nothing pending)."""
@@ -228,7 +249,7 @@ class Engine:
             cap = max(self.list_capacity, 1) if self.mode == "list" else 1
             nl = n if self.mode == "list" else 1
             self.lists = Lists(np.zeros((nl, cap), np.int32), np.zeros(nl, np.int32), np.zeros((nl, 3)))
-            if self.loop.setup_events(self.part, self.ev, self.grid, self.lists, geo, self.fp, self.ip, self.cbuf, self.emd, 0.0):
+            if self.loop.setup_events(self.part, self.ev, self.grid, self.lists, geo, self.fp, self.ip, self.cbuf, self.emd, self.bath, 0.0):
                 break
             self.list_capacity = int(self.list_capacity * 1.5) + 4
         if self.mode == "list":
@@ -254,7 +275,7 @@ class Engine:
         """Compile the event loop now (a call that processes no event), so that timings exclude it."""
         self.loop.run_events(
             self.part, self.ev, self.q, self.grid, self.lists, self.geo, self.fp, self.ip,
-            self.acc, self.cnt, self.clog, self.cbuf, self.etab, self.emd, -math.inf, 0,
+            self.acc, self.cnt, self.clog, self.cbuf, self.etab, self.emd, self.bath, -math.inf, 0,
         )  # fmt: skip
 
     def advance(self, t_stop: float, max_events: int | float = math.inf) -> int:
@@ -274,7 +295,7 @@ class Engine:
             before = int(self.cnt[L.C_EVENTS])
             status = self.loop.run_events(
                 self.part, self.ev, self.q, self.grid, self.lists, geo, self.fp, self.ip,
-                self.acc, self.cnt, self.clog, self.cbuf, self.etab, self.emd, t_stop - self.t_origin, chunk,
+                self.acc, self.cnt, self.clog, self.cbuf, self.etab, self.emd, self.bath, t_stop - self.t_origin, chunk,
             )  # fmt: skip
             budget -= int(self.cnt[L.C_EVENTS]) - before
             if status == L.ST_LOG_FULL:

@@ -6,8 +6,9 @@ eMD*, a tangential law and the normal law. The first run of each feature set pay
 sweep's workers or CI can warm the cache for the feature sets they will use.
 
 Features are written as ``+``-joined names: ``plain``, ``walls``, ``rough``, ``viscoelastic``,
-``soft`` (the central restitution of a soft contact law used instantaneously), ``emdstar`` and
-``debug`` (the per-collision checks of ``[engine] debug``), e.g. ``walls+rough+viscoelastic``.
+``soft`` (the central restitution of a soft contact law used instantaneously), ``emdstar``,
+``bath`` (the Andersen heat bath, :class:`edmd.Andersen`) and ``debug`` (the per-collision checks
+of ``[engine] debug``), e.g. ``walls+rough+viscoelastic``.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from ._core import layout as L
 from ._core.jit import in_disk_cache
 from ._core.loop import loop_variant
 
-FEATURES = ("walls", "rough", "viscoelastic", "soft", "emdstar", "debug")
+FEATURES = ("walls", "rough", "viscoelastic", "soft", "emdstar", "bath", "debug")
 
 
 class FeatureError(ValueError):
@@ -59,7 +60,7 @@ def all_feature_sets() -> list[frozenset[str]]:
             for rough in ((), ("rough",)):
                 sets.append(frozenset(walls + normal + rough))
         sets.append(frozenset(walls + ("emdstar",)))
-    return sets
+    return sets + [s | {"bath"} for s in sets]
 
 
 def _variant(features: frozenset[str]):
@@ -68,7 +69,7 @@ def _variant(features: frozenset[str]):
         normal = L.NORMAL_VISCO
     elif "soft" in features or "emdstar" in features:
         normal = L.NORMAL_SOFT
-    return loop_variant("walls" in features, "emdstar" in features, "rough" in features, normal, "debug" in features)
+    return loop_variant("walls" in features, "emdstar" in features, "rough" in features, normal, "debug" in features, "bath" in features)
 
 
 def _example(features: frozenset[str]):
@@ -77,6 +78,7 @@ def _example(features: frozenset[str]):
     from .collide import Rough, Viscoelastic
     from .contact import Hertz
     from .emdstar import EMDStar
+    from .thermostats import Andersen
 
     hertz = Hertz(young=1e5, poisson=0.3, A=1e-3)
     normal = 0.9
@@ -91,7 +93,8 @@ def _example(features: frozenset[str]):
     state = edmd.maxwell_boltzmann(edmd.lattice(32, 0.1, periodic=periodic), 1.0, seed=1)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # e.g. the viscoelastic validity warning of this toy system
-        return edmd.Simulation(state, collision=rule, engine={"debug": "debug" in features})
+        bath = Andersen(kT=1.0, rate=0.1) if "bath" in features else None
+        return edmd.Simulation(state, collision=rule, thermostat=bath, engine={"debug": "debug" in features})
 
 
 def compile_features(features: frozenset[str]) -> tuple[str, float, bool]:

@@ -77,7 +77,8 @@ def build_simulation(cfg: Config, state: State | None = None) -> Simulation:
     options = EngineOptions(neighbours=e.neighbours, skin=e.skin, resync_every=e.resync_every, events_per_bucket=e.events_per_bucket, debug=e.debug)
     rule = cfg.collision.build(float(state.mass.mean()))
     walls = cfg.walls.build(cfg.collision.material(), getattr(rule, "contact", None))
-    return Simulation(state, collision=rule, walls=walls, gravity=cfg.system.gravity, engine=options)
+    bath = None if cfg.thermostat is None else cfg.thermostat.build()
+    return Simulation(state, collision=rule, walls=walls, gravity=cfg.system.gravity, thermostat=bath, engine=options)
 
 
 def make_observers(cfg: Config, out: Path, run_id: str | None = None) -> list[Observer]:

@@ -16,6 +16,7 @@ from . import collide
 from ._core import layout as L
 from .engine import Engine, EngineError, EngineOptions
 from .state import State
+from .thermostats import Andersen, thermostat_from_dict
 
 
 @dataclasses.dataclass(eq=False)
@@ -149,6 +150,7 @@ class Simulation:
         e_n: shortcut for ``collision=Inelastic(e_n)``.
         walls: restitution of the walls (:class:`edmd.collide.Wall`), elastic and smooth by default.
         gravity: uniform acceleration (``d`` numbers) or ``None``.
+        thermostat: a heat bath acting through events (:class:`edmd.Andersen`, or its dict) or ``None``.
         engine: :class:`~edmd.engine.EngineOptions` (or a dict of them).
 
     Example:
@@ -167,6 +169,7 @@ class Simulation:
         e_n: float | None = None,
         walls: collide.Wall | None = None,
         gravity=None,
+        thermostat: Andersen | dict | None = None,
         engine: EngineOptions | dict | None = None,
     ):
         if e_n is not None:
@@ -179,7 +182,11 @@ class Simulation:
             collision = collide.from_dict(collision)
         if isinstance(walls, dict):
             walls = collide.from_dict(walls)
-        self._engine = Engine(state, engine, rule=collision, wall=walls, gravity=gravity)
+        if isinstance(thermostat, dict):
+            thermostat = thermostat_from_dict(thermostat)
+        if thermostat is not None and not isinstance(thermostat, Andersen):
+            raise TypeError(f"thermostat must be an edmd.Andersen (or its dict), got {thermostat!r}")
+        self._engine = Engine(state, engine, rule=collision, wall=walls, gravity=gravity, thermostat=thermostat)
         self._engine.compile()  # once per machine (cached on disk); kept out of wall_seconds
         self.gravity = self._engine.grav[: state.dim].copy()
         _warn_viscoelastic_validity(state, self._engine.rule, self._engine.wall, self.gravity)
@@ -188,6 +195,7 @@ class Simulation:
             "collision": collide.to_dict(self._engine.rule),
             "walls": collide.to_dict(self._engine.wall),
             "gravity": None if gravity is None else [float(g) for g in gravity],
+            "thermostat": None if thermostat is None else thermostat.to_dict(),
             "engine": dataclasses.asdict(self._engine.options),
         }
         self._time = float(state.time)
@@ -246,6 +254,11 @@ class Simulation:
     def has_updaters(self) -> bool:
         """Whether an attached observer may change the state (then energy is not conserved alone)."""
         return any(o.changes_state for o in self.observers)
+
+    @property
+    def has_energy_input(self) -> bool:
+        """Whether something puts energy in (updaters or a thermostat): ``Totals.energy_input`` counts it."""
+        return self.has_updaters or self._engine.thermostat is not None
 
     def apply_update(self, old: State, new: State):
         """Continue from ``new``, the system at ``old.time`` as an updater changed it.

@@ -124,7 +124,7 @@ class Thermo(Observer):
                 row[f"wall_pressure_{AXES[k]}"] = float((totals.wall_impulse[k] - last.wall_impulse[k]).sum()) / (2.0 * area * dt)
         if sim.engine.emd_rule is not None:
             row.update(sim.engine.emd_counters())
-        if sim.has_updaters:
+        if sim.has_energy_input:
             row["energy_input"] = totals.energy_input
         self._last = totals
         self.rows.append(row)

@@ -69,3 +69,25 @@ def test_equation_of_state_and_enskog_rate(dim, eta):
           f"omega={omega:.5f} (Enskog {omega_ref:.5f}, {omega / omega_ref - 1:+.2%})")
     assert z == pytest.approx(z_ref, rel=0.01)
     assert omega == pytest.approx(omega_ref, rel=0.01)
+
+
+@pytest.mark.parametrize("dim, eta", [(3, 0.3), (2, 0.5)], ids=["3d-0.3", "2d-0.5"])
+def test_andersen_bath_samples_the_equilibrium_equation_of_state(dim, eta):
+    # the bath fixes kT = 1.5 from a start at kT = 0.5; Z = P/(n kT_bath) must be the fluid's
+    n = 2048 if dim == 3 else 2000
+    state = edmd.maxwell_boltzmann(edmd.lattice(n, eta, dim=dim), 0.5, seed=5)
+    sim = edmd.Simulation(state, thermostat=edmd.Andersen(kT=1.5, rate=0.5, seed=1))
+    sim.run(until_time=20.0)  # 10 bath times: melted and at the bath temperature
+    before = sim.totals()
+    sim.run(until_time=sim.time + 300_000 / (0.5 * n * enskog_rate(dim, n, eta, state.volume) * math.sqrt(1.5)))
+    after = sim.totals()
+    s = sim.state
+    dt = after.time - before.time
+    kT = 2.0 * (after.kinetic_integral - before.kinetic_integral) / (dt * dim * n)  # time-averaged
+    p = edmd.thermo.pressure(s, after.kinetic_integral - before.kinetic_integral, after.virial - before.virial, dt)
+    z = p / (n / s.volume * 1.5)
+    chi = chi_cs(eta) if dim == 3 else chi_henderson(eta)
+    z_ref = 1 + 2 ** (dim - 1) * eta * chi
+    print(f"d={dim} eta={eta}: kT={kT:.5f} (bath 1.5), Z={z:.5f} (ref {z_ref:.5f}, {z / z_ref - 1:+.2%})")
+    assert kT == pytest.approx(1.5, rel=0.01)  # N d dof averaged over ~ 15 bath times: ~0.3 %
+    assert z == pytest.approx(z_ref, rel=0.015)

@@ -85,6 +85,14 @@ class EMDStarData(NamedTuple):
     work: np.ndarray  #: (9, 3) scratch of the lab-frame update (r1, r2, v1, v2, r1A, r2A, V, D1, D2)
 
 
+class Bath(NamedTuple):
+    """The Andersen heat bath's single-particle events (:mod:`.bath`)."""
+
+    next_t: np.ndarray  #: (N,) local time of each particle's next bath event (inf: no bath)
+    key: np.ndarray  #: (2,) uint64: seed, and the bit pattern of the load time (the RNG epoch)
+    axes: np.ndarray  #: (2, 3) int64: velocity (row 0) and spin (row 1) components the bath draws
+
+
 def new_events(n: int) -> Events:
     """No event predicted yet for ``n`` particles."""
     return Events(np.full(n, np.inf), np.full(n, -1, np.int32), np.zeros(n, np.int32), np.full(n, np.inf), np.zeros(n, np.int32))

@@ -16,6 +16,7 @@ AUX_CELL = 2  # cell crossing: AUX_CELL + 2 * axis + (0 lower face, 1 upper face
 AUX_WALL = 8  # hard wall: AUX_WALL + 2 * axis + (0 lower wall, 1 upper wall)
 AUX_WALL_END = AUX_WALL + 6
 AUX_B = 64  # eMD* type-B event (the particle takes its post-collisional velocity)
+AUX_BATH = 65  # Andersen heat bath: the particle's velocity is drawn anew (see bath.py)
 # Dispatch is explicit: every kind the loop knows is tested for, and any other code stops the
 # run with ST_BAD_EVENT (a new kind must be given its own branch, it can never fall into another's).
 
@@ -61,10 +62,11 @@ COUNTERS = (
     "emd_exceptions_a",  # eMD* exception a): the relocation would overlap a third particle or a wall
     "emd_exceptions_b",  # eMD* exception b): a particle with a pending B event reached a new contact (particle or wall)
     "emd_fallbacks",  # eMD*: contacts resolved by the instantaneous rule (exception a, overlapping pairs)
+    "bath_events",  # Andersen heat bath: velocities drawn anew
 )
 (
     C_EVENTS, C_COLL, C_STALE, C_AUX, C_REBUILD, C_WALL, C_LOG, C_ZENO_RUN, C_BAD_I, C_BAD_J,
-    C_TC_ELASTIC, C_EMD_A, C_EMD_EXC_A, C_EMD_EXC_B, C_EMD_FALLBACK,
+    C_TC_ELASTIC, C_EMD_A, C_EMD_EXC_A, C_EMD_EXC_B, C_EMD_FALLBACK, C_BATH,
 ) = range(len(COUNTERS))  # fmt: skip
 N_COUNTERS = len(COUNTERS)
 
@@ -108,10 +110,12 @@ IPARAMS = (
     "soft_model",  # soft contact model of eMD* and of the NORMAL_SOFT law (contact.MODEL_*)
     "emd_tables",  # eMD*: interpolate the matrix of restitution (1) or always solve (0)
     "emd_communication",  # eMD*: post-collisional communication in exception b)
+    "bath",  # Andersen heat bath on
+    "bath_seed",  # its random seed
 )
 (
     IP_MODE, IP_LOG_CAP, IP_MAXSTALL, IP_DEBUG, IP_NORMAL, IP_TANGENT, IP_TC, IP_WALL_NORMAL,
-    IP_WALL_TANGENT, IP_WALLS, IP_EMD, IP_EMD_MODEL, IP_EMD_TABLE, IP_EMD_COMM,
+    IP_WALL_TANGENT, IP_WALLS, IP_EMD, IP_EMD_MODEL, IP_EMD_TABLE, IP_EMD_COMM, IP_BATH, IP_BATH_SEED,
 ) = range(len(IPARAMS))  # fmt: skip
 N_IP = len(IPARAMS)
 
@@ -133,10 +137,13 @@ FPARAMS = (
     "soft_a",  # soft contact law constants (a, b) of :mod:`.contact`
     "soft_b",
     "emd_rtol",  # eMD*: tolerance of the direct two-body solver
+    "bath_kT",  # Andersen heat bath: temperature
+    "bath_rate",  # and the rate of each particle's bath events
 )
 (
     FP_SKIN, FP_DEBUG_TOL, FP_EN, FP_BETA, FP_MU, FP_TC, FP_VISCO_K, FP_VISCO_A, FP_ETAB_INV,
-    FP_WALL_EN, FP_WALL_BETA, FP_WALL_MU, FP_MTOT, FP_SOFT_A, FP_SOFT_B, FP_EMD_RTOL,
+    FP_WALL_EN, FP_WALL_BETA, FP_WALL_MU, FP_MTOT, FP_SOFT_A, FP_SOFT_B, FP_EMD_RTOL, FP_BATH_KT,
+    FP_BATH_RATE,
 ) = range(len(FPARAMS))  # fmt: skip
 N_FP = len(FPARAMS)
 

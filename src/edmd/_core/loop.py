@@ -25,6 +25,7 @@ from .jit import hot, jit
 
 from . import layout as L
 from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTACT_SOFT, NB_LIST, NORMAL_SOFT, NORMAL_VISCO, TANGENT_SMOOTH
+from .bath import bath_event
 from .cells import bin_all, cell_insert, cell_of_point, cell_remove, crossing_time, walk_around, walk_cells, walk_next
 from .collide import collide_pair, collide_wall
 from .emdstar import contact_map, execute_b, is_pending, relocation_blocked
@@ -123,10 +124,10 @@ def _wall_event(i, t, P, geo, walls, best, kind):
 
 
 @hot
-def predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb):
+def predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t):
     """Earliest single-particle event of ``i``: shell exit (lists) or cell crossing (cells), a wall
-    (when ``walls``; ``wall_axes`` has bit ``k`` set for axis ``k``), or its eMD* B event (``ptb``,
-    when ``emd_on``)."""
+    (when ``walls``; ``wall_axes`` has bit ``k`` set for axis ``k``), its eMD* B event (``ptb``,
+    when ``emd_on``) or its Andersen bath event (``bath_t``, when ``bath_on``)."""
     if mode == NB_LIST:
         ev.aux_t[i] = shell_exit_time(P, i, t, lists, geo, skin)
         ev.aux_k[i] = L.AUX_SHELL
@@ -139,6 +140,9 @@ def predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, s
     if emd_on and ptb[i] < ev.aux_t[i]:  # (hard spheres never touch ptb: no cache miss)
         ev.aux_t[i] = ptb[i]
         ev.aux_k[i] = L.AUX_B
+    if bath_on and bath_t[i] < ev.aux_t[i]:
+        ev.aux_t[i] = bath_t[i]
+        ev.aux_k[i] = L.AUX_BATH
 
 
 @hot
@@ -189,13 +193,13 @@ def _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf, contact
 
 
 @jit
-def _repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb):
+def _repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb, bath_t):
     """Both candidate events of ``i`` after its flight changed, and its calendar key.
 
     Compiled once and called (eMD* exception b); the loop inlines the same steps.
     """
     predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
-    predict_aux(i, t, P, ev, grid, lists, geo, mode, ip[L.IP_WALLS] != 0, ip[L.IP_WALLS], ip[L.IP_EMD] != 0, fp[L.FP_SKIN], ptb)
+    predict_aux(i, t, P, ev, grid, lists, geo, mode, ip[L.IP_WALLS] != 0, ip[L.IP_WALLS], ip[L.IP_EMD] != 0, fp[L.FP_SKIN], ptb, ip[L.IP_BATH] != 0, bath_t)
     _requeue(q, ev, i)
 
 
@@ -294,7 +298,7 @@ def _rebin(p, t, P, image, grid, lists, geo, mode, fp, cbuf):
 
 
 @jit
-def _finish_contact(p, i, j, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd):
+def _finish_contact(p, i, j, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd, bath_t):
     """Exception b) (physics.md §4.8): ``p``, still in a soft contact, meets a third body at ``t``.
 
     Its pending B event is executed now and, with post-collisional communication, that of its
@@ -305,11 +309,11 @@ def _finish_contact(p, i, j, t, P, count, ev, q, grid, lists, geo, mode, fp, ip,
     execute_b(p, t, P, count, emd, geo)
     if ip[L.IP_EMD_COMM] and other != i and other != j and pj[other] == p:
         execute_b(other, t, P, count, emd, geo)
-        _repredict(np.int64(other), t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd.pending_until)
+        _repredict(np.int64(other), t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd.pending_until, bath_t)
 
 
 @jit
-def _emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt, cbuf, emd):
+def _emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt, cbuf, emd, bath_t):
     """A pair ``(i, j)`` (streamed to ``t``) reaches contact under eMD* (physics.md §4.8).
 
     Exception b) first: pending B events of either partner are executed now (and, with
@@ -328,7 +332,7 @@ def _emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt,
         cnt[L.C_EMD_EXC_B] += 1
         for p in (np.int64(i), np.int64(j)):
             if is_pending(emd, p):
-                _finish_contact(p, i, j, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd)
+                _finish_contact(p, i, j, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd, bath_t)
     dx, dy, dz, gx, gy, gz = separation(P, i, j, t, geo)
     if exception_b and dx * gx + dy * gy + dz * gz >= 0.0:
         return CONTACT_DISCARDED
@@ -380,7 +384,7 @@ class Loop(NamedTuple):
     name: str
 
 
-def variant_name(walls: bool, emd_on: bool, rough: bool, normal: int, debug: bool = False) -> str:
+def variant_name(walls: bool, emd_on: bool, rough: bool, normal: int, debug: bool = False, bath: bool = False) -> str:
     """Readable name of a feature set, e.g. ``"walls+rough+viscoelastic"`` (``"plain"``: none).
 
     Example:
@@ -392,6 +396,8 @@ def variant_name(walls: bool, emd_on: bool, rough: bool, normal: int, debug: boo
     law = {NORMAL_VISCO: "viscoelastic", NORMAL_SOFT: "soft"}.get(int(normal))
     if law is not None and not emd_on:  # eMD*'s instantaneous fallbacks always use the soft law
         parts.append(law)
+    if bath:
+        parts.append("bath")
     if debug:
         parts.append("debug")
     return "+".join(parts) or "plain"
@@ -401,7 +407,7 @@ _VARIANTS: dict[tuple, Loop] = {}
 _SETUPS: dict[tuple, Callable] = {}
 
 
-def loop_variant(walls: bool, emd_on: bool, rough: bool, normal: int, debug: bool = False) -> Loop:
+def loop_variant(walls: bool, emd_on: bool, rough: bool, normal: int, debug: bool = False, bath: bool = False) -> Loop:
     """The event loop specialised to the physics of a run, compiled (and cached on disk) on first use.
 
     The features are compile-time constants of the loop (closure variables): Numba prunes the
@@ -417,6 +423,7 @@ def loop_variant(walls: bool, emd_on: bool, rough: bool, normal: int, debug: boo
             rule only (no spin code).
         normal: the normal law of pair collisions (``NORMAL_*``).
         debug: the per-collision checks of debug mode (``_debug_check``).
+        bath: the Andersen heat bath's events (:mod:`.bath`).
 
     Example:
         >>> from edmd._core import layout as L
@@ -424,17 +431,18 @@ def loop_variant(walls: bool, emd_on: bool, rough: bool, normal: int, debug: boo
         >>> loop is loop_variant(False, False, False, L.NORMAL_CONST)
         True
     """
-    key = (bool(walls), bool(emd_on), bool(rough), int(normal), bool(debug))
+    key = (bool(walls), bool(emd_on), bool(rough), int(normal), bool(debug), bool(bath))
     if key not in _VARIANTS:
-        if key[:2] not in _SETUPS:  # the set-up depends on the single-particle events only
-            _SETUPS[key[:2]] = _make_setup(*key[:2])
-        _VARIANTS[key] = Loop(_make_loop(*key), _SETUPS[key[:2]], variant_name(*key))
+        aux = (key[0], key[1], key[5])  # the set-up depends on the single-particle events only
+        if aux not in _SETUPS:
+            _SETUPS[aux] = _make_setup(*aux)
+        _VARIANTS[key] = Loop(_make_loop(*key), _SETUPS[aux], variant_name(*key))
     return _VARIANTS[key]
 
 
-def _make_loop(walls, emd_on, rough, normal, debug):
+def _make_loop(walls, emd_on, rough, normal, debug, bath_on):
     @jit
-    def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, etab, emd, t_stop, max_events):
+    def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, etab, emd, bath, t_stop, max_events):
         """Process events in time order until ``t_stop`` (exclusive) or ``max_events``.
 
         Returns a status code of :mod:`.layout` (``ST_*``); ``acc[A_NOW]`` holds the time of the
@@ -444,6 +452,7 @@ def _make_loop(walls, emd_on, rough, normal, debug):
         """
         P, mass, omega, inertia, image, count, tlast = part
         ptb = emd.pending_until
+        bath_t = bath.next_t
         key = q.key
         mode = ip[L.IP_MODE]
         log_cap = ip[L.IP_LOG_CAP]
@@ -485,12 +494,21 @@ def _make_loop(walls, emd_on, rough, normal, debug):
                 elif walls and kind >= L.AUX_WALL and kind < L.AUX_WALL_END:
                     if emd_on and is_pending(emd, i):  # a wall is a third body too: end the soft contact first
                         cnt[L.C_EMD_EXC_B] += 1
-                        _finish_contact(i, i, -1, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd)
+                        _finish_contact(i, i, -1, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd, bath_t)
                     advance(P, i, t, geo)
                     integrate_kinetic(acc, t, geo, total_mass)
                     collide_wall(t, P, mass, omega, inertia, tlast, i, (kind - L.AUX_WALL) >> 1, (kind - L.AUX_WALL) & 1, fp, ip, etab, acc)
                     count[i] += 1
                     cnt[L.C_WALL] += 1
+                elif bath_on and kind == L.AUX_BATH:
+                    if emd_on and is_pending(emd, i):  # the bath acts on the committed velocity
+                        cnt[L.C_EMD_EXC_B] += 1
+                        _finish_contact(i, i, -1, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd, bath_t)
+                    advance(P, i, t, geo)
+                    integrate_kinetic(acc, t, geo, total_mass)
+                    bath_event(i, t, P, mass, omega, inertia, count, bath, fp, ip, acc, rough)
+                    count[i] += 1
+                    cnt[L.C_BATH] += 1
                 elif kind == L.AUX_SHELL:  # the particle left the shell of its neighbour list
                     advance(P, i, t, geo)
                     _wrap_into_box(P, image, i, geo)
@@ -500,7 +518,7 @@ def _make_loop(walls, emd_on, rough, normal, debug):
                 elif kind >= L.AUX_CELL and kind < L.AUX_WALL:  # a cell crossing (the most frequent
                     # event of dilute gases): a path of its own
                     _cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf)
-                    predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb)
+                    predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t)
                     _requeue(q, ev, i)
                     continue
                 else:  # no kind of this variant: a bug, never handled as another kind
@@ -525,7 +543,7 @@ def _make_loop(walls, emd_on, rough, normal, debug):
                     outcome = CONTACT_INSTANT
                     vn = vt = 0.0
                     if emd_on:
-                        outcome = _emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt, cbuf, emd)
+                        outcome = _emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt, cbuf, emd, bath_t)
                         if outcome == CONTACT_LIST_FULL:
                             return L.ST_LIST_FULL
                         if outcome == CONTACT_SOFT:
@@ -544,10 +562,10 @@ def _make_loop(walls, emd_on, rough, normal, debug):
                     # a path of its own (as crossings have): a site shared by several event kinds
                     # mixes their branch histories, which cost cell-mode gases 20-30 % (measured)
                     predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
-                    predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb)
+                    predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t)
                     _requeue(q, ev, i)
                     predict_pair(j, t, P, count, ev, grid, lists, geo, mode, cbuf)
-                    predict_aux(j, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb)
+                    predict_aux(j, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t)
                     _requeue(q, ev, j)
                     continue
             # the shared site of the rare events (every inlined copy of the predictors is compile
@@ -557,15 +575,15 @@ def _make_loop(walls, emd_on, rough, normal, debug):
                 if pair:
                     predict_pair(p, t, P, count, ev, grid, lists, geo, mode, cbuf)
                 if aux:
-                    predict_aux(p, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb)
+                    predict_aux(p, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t)
                 _requeue(q, ev, p)
 
     return run_events
 
 
-def _make_setup(walls, emd_on):
+def _make_setup(walls, emd_on, bath_on):
     @jit
-    def setup_events(part, ev, grid, lists, geo, fp, ip, cbuf, emd, t):
+    def setup_events(part, ev, grid, lists, geo, fp, ip, cbuf, emd, bath, t):
         """Bin every particle (positions or list centres) and predict all events at time ``t``.
 
         Returns ``False`` if a neighbour list ran out of capacity.
@@ -583,7 +601,7 @@ def _make_setup(walls, emd_on):
             bin_all(P, geo, grid)
         for i in range(n):
             predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
-            predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, emd.pending_until)
+            predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, emd.pending_until, bath_on, bath.next_t)
         return True
 
     return setup_events

@@ -1,0 +1,71 @@
+r"""The Andersen heat bath as single-particle events (H. C. Andersen, J. Chem. Phys. 72, 2384 (1980)).
+
+Each particle meets the bath at the times of its own Poisson process of rate :math:`\nu`
+(kind ``AUX_BATH``, in the calendar like any other event; :class:`.bundles.Bath` holds the
+next time of each particle). At a bath event the particle's velocity, and its spin when the
+rule is rough, are drawn anew from Maxwell–Boltzmann at :math:`k_BT`:
+
+.. math::
+    v_\alpha \sim \mathcal N\!\left(0, \frac{k_BT}{m}\right),\qquad
+    \omega_\alpha \sim \mathcal N\!\left(0, \frac{k_BT}{I}\right),
+
+and its next bath time is :math:`t + \tau` with :math:`\tau = -\ln(1 - u)/\nu`.
+
+Every number comes from the counter-based generator of :mod:`.rng`, keyed by ``(seed, epoch,
+particle, count)``: ``epoch`` is the bit pattern of the time the engine was last loaded, and
+``count`` the particle's event counter (which every bath event bumps), so no generator state
+exists between events. At each load (start, resync, checkpoint, restart) every particle's
+Poisson clock is drawn afresh from the load time, which the memorylessness of the exponential
+distribution allows, with the reserved count ``SCHEDULE``: a restarted run draws exactly what
+the uninterrupted one drew.
+"""
+
+import math
+
+import numpy as np
+
+from . import layout as L
+from .jit import jit
+from .rng import normal_pair, stream, uniform
+
+#: the ``count`` of the key of the clock draws at a load (event counters are int32, never this)
+SCHEDULE = np.uint64(1 << 40)
+
+
+@jit
+def bath_schedule(bath, rate):
+    """Draw every particle's first bath time after a load (local time 0)."""
+    seed, epoch = bath.key[0], bath.key[1]
+    for i in range(bath.next_t.shape[0]):
+        bath.next_t[i] = -math.log(1.0 - uniform(stream(seed, epoch, i, SCHEDULE), 0)) / rate
+
+
+@jit
+def bath_event(i, t, P, mass, omega, inertia, count, bath, fp, ip, acc, rough):
+    r"""Particle ``i`` (streamed to ``t``) meets the bath: new velocity (and spin if ``rough``), next bath time.
+
+    Books the change of kinetic (and rotational) energy as ``energy_input`` and updates the
+    running translational kinetic energy and momentum (``acc``). Only the components that
+    ``bath.axes`` marks are drawn (row 0 velocity, row 1 spin): disks keep :math:`v_z = 0`
+    exactly and spin about ``z`` only.
+    """
+    kT = fp[L.FP_BATH_KT]
+    z = stream(bath.key[0], bath.key[1], i, count[i])
+    s = math.sqrt(kT / mass[i])
+    g = normal_pair(z, 1) + normal_pair(z, 3) + normal_pair(z, 5)
+    de = 0.0
+    for k in range(3):
+        old = P[i, L.VX + k]
+        new = s * g[k] if bath.axes[0, k] else 0.0
+        de += 0.5 * mass[i] * (new * new - old * old)
+        acc[L.A_PX + k] += mass[i] * (new - old)
+        P[i, L.VX + k] = new
+    acc[L.A_KE] += de
+    if rough:
+        w = math.sqrt(kT / inertia[i])
+        for k in range(3):
+            new = w * g[3 + k] if bath.axes[1, k] else 0.0
+            de += 0.5 * inertia[i] * (new * new - omega[i, k] * omega[i, k])
+            omega[i, k] = new
+    acc[L.A_ENERGY_INPUT] += de
+    bath.next_t[i] = t - math.log(1.0 - uniform(z, 0)) / fp[L.FP_BATH_RATE]

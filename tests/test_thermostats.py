@@ -1,0 +1,147 @@
+"""The Andersen heat bath (``edmd.thermostats``, ``edmd._core.bath``)."""
+
+import math
+
+import numpy as np
+import pytest
+
+import edmd
+from edmd._core import layout as L
+
+
+def _gas(dim, n=256, eta=0.2, kT=0.2, seed=1):
+    return edmd.maxwell_boltzmann(edmd.lattice(n, eta, dim=dim), kT, seed=seed)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_velocities_relax_to_maxwell_boltzmann_at_the_bath_temperature(dim):
+    # start far from it: every particle at the same speed (v_x kurtosis 9/5 in 3D, 3/2 in 2D)
+    state = _gas(dim, kT=1.0)
+    v = state.velocity / np.linalg.norm(state.velocity, axis=1)[:, None] * 0.5
+    state = edmd.State(position=state.position, velocity=v, radius=state.radius, mass=state.mass, box=state.box)
+    sim = edmd.Simulation(state, thermostat=edmd.Andersen(kT=2.0, rate=1.0, seed=4))
+    sim.run(until_time=10.0)  # 10 bath times
+    samples = []
+    for _ in range(40):  # one bath time apart: nearly independent
+        sim.run(until_time=sim.time + 1.0)
+        samples.append(sim.state.velocity)
+    v = np.concatenate(samples).ravel()
+    n_dof = v.size
+    # mean v^2 = kT/m: relative standard error sqrt(2/n_dof) (correlations at most double it)
+    assert np.mean(v**2) == pytest.approx(2.0, rel=5 * math.sqrt(4 / n_dof))
+    assert np.mean(v**4) / np.mean(v**2) ** 2 == pytest.approx(3.0, abs=0.15)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_bath_events_are_poisson_at_the_given_rate(dim):
+    n, rate, t = 256, 0.5, 20.0
+    sim = edmd.Simulation(_gas(dim, n), thermostat=edmd.Andersen(kT=1.0, rate=rate, seed=2))
+    sim.run(until_time=t)
+    expected = n * rate * t  # Poisson count: standard deviation sqrt(expected)
+    assert abs(int(sim.engine.cnt[L.C_BATH]) - expected) < 5 * math.sqrt(expected)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_energy_balance_closes_with_a_rough_inelastic_gas_in_the_bath(dim):
+    # the bath resamples spins too; input - dissipated - (change of energy) = 0 to round-off
+    state = _gas(dim, eta=0.1)
+    sim = edmd.Simulation(state, collision=edmd.collide.Rough(e_n=0.8, beta=0.4), thermostat=edmd.Andersen(kT=1.0, rate=0.5, seed=9))
+    e0 = state.kinetic_energy() + state.rotational_energy()
+    sim.run(until_time=30.0)
+    s, tot = sim.state, sim.totals()
+    assert tot.energy_input > 0 and tot.dissipated > 0
+    e1 = s.kinetic_energy() + s.rotational_energy()
+    assert abs(tot.energy_input - tot.dissipated - (e1 - e0)) < 1e-9 * (tot.energy_input + tot.dissipated)
+    assert s.rotational_energy() > 0  # spins were drawn
+    # steady state between bath and dissipation: colder than the bath, hotter than the start
+    assert 0.2 < s.temperature() < 1.0
+
+
+def test_disks_stay_in_the_plane_and_spin_about_z():
+    sim = edmd.Simulation(_gas(2), collision=edmd.collide.Rough(e_n=0.9, beta=0.5), thermostat=edmd.Andersen(kT=1.0, rate=2.0))
+    sim.run(until_time=5.0)
+    e = sim.engine
+    assert int(e.cnt[L.C_BATH]) > 1000
+    assert np.all(e.part.rows[:, L.Z] == 0.0) and np.all(e.part.rows[:, L.VZ] == 0.0)
+    assert np.all(e.part.omega[:, :2] == 0.0) and np.any(e.part.omega[:, 2] != 0.0)
+
+
+def test_momentum_is_tracked_through_bath_events():
+    sim = edmd.Simulation(_gas(3), thermostat=edmd.Andersen(kT=1.0, rate=1.0, seed=5))
+    sim.run(until_time=5.0)
+    s = sim.state
+    engine_p = sim.engine.acc[L.A_PX : L.A_PZ + 1]
+    assert np.allclose(engine_p, s.mass @ s.velocity, atol=1e-9)
+    assert np.linalg.norm(engine_p) > 1.0  # the bath does not conserve momentum
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_a_restart_continues_bit_for_bit(tmp_path, dim):
+    path = tmp_path / "bath.gsd"
+
+    def simulation():
+        return edmd.Simulation(_gas(dim), collision=edmd.collide.Rough(e_n=0.9, beta=0.3), thermostat=edmd.Andersen(kT=1.0, rate=0.7, seed=3))
+
+    full = simulation()
+    full.add(edmd.Checkpoint(path, interval=2.0))
+    full.run(until_time=2.0)
+    full.run(until_time=5.0)
+    restarted = edmd.Simulation.from_checkpoint(path, observers=[edmd.Checkpoint(tmp_path / "again.gsd", interval=2.0)])
+    assert restarted.time == 4.0  # the last checkpoint point
+    restarted.run(until_time=5.0)
+    a, b = full.state, restarted.state
+    assert np.array_equal(a.position, b.position) and np.array_equal(a.velocity, b.velocity)
+    assert np.array_equal(a.angular_velocity, b.angular_velocity)
+    assert full.totals() == restarted.totals()
+
+
+def test_the_seed_decides_the_bath():
+    runs = []
+    for seed in (1, 1, 2):
+        sim = edmd.Simulation(_gas(3), thermostat=edmd.Andersen(kT=1.0, rate=1.0, seed=seed))
+        sim.run(until_time=2.0)
+        runs.append(sim.state.velocity)
+    assert np.array_equal(runs[0], runs[1]) and not np.array_equal(runs[0], runs[2])
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"kT": -1.0, "rate": 1.0}, "Andersen kT must be a positive number, got -1.0"),
+        ({"kT": 1.0, "rate": 0.0}, "Andersen rate must be a positive number, got 0.0"),
+        ({"kT": 1.0, "rate": math.inf}, "Andersen rate must be a positive number, got inf"),
+        ({"kT": 1.0, "rate": 1.0, "seed": -3}, r"Andersen seed must be an integer in \[0, 2\*\*63\), got -3"),
+        ({"kT": 1.0, "rate": 1.0, "seed": 1.5}, r"Andersen seed must be an integer"),
+    ],
+)
+def test_bad_parameters_are_named(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        edmd.Andersen(**kwargs)
+
+
+def test_a_thermostat_of_another_type_is_refused():
+    with pytest.raises(TypeError, match="thermostat must be an edmd.Andersen"):
+        edmd.Simulation(_gas(3), thermostat=1.0)
+
+
+def test_thermo_has_the_energy_input_column(tmp_path):
+    sim = edmd.Simulation(_gas(3), e_n=0.9, thermostat=edmd.Andersen(kT=1.0, rate=0.5))
+    sim.add(edmd.Thermo(1.0, tmp_path / "thermo.csv"))
+    sim.run(until_time=5.0)
+    sim.close()
+    table = edmd.read_thermo(tmp_path / "thermo.csv")
+    balance = table["energy_balance"]
+    assert table["energy_input"][-1] > 0
+    assert np.ptp(balance) < 1e-9 * table["energy_input"][-1]
+
+
+def test_config_section_and_cli_reach_the_bath(tmp_path):
+    from edmd.config import parse_config
+    from edmd.runner import build_simulation
+
+    cfg = parse_config({"system": {"n": 108, "packing_fraction": 0.1}, "thermostat": {"kind": "andersen", "kT": 1.5, "rate": 0.25, "seed": 4}})
+    sim = build_simulation(cfg)
+    assert sim.params["thermostat"] == {"kind": "andersen", "kT": 1.5, "rate": 0.25, "seed": 4}
+    assert sim.engine.loop.name == "bath"
+    with pytest.raises(edmd.ConfigError, match="thermostat.kind"):
+        parse_config({"thermostat": {"kind": "nose-hoover", "kT": 1.0, "rate": 1.0}})
