@@ -8,14 +8,17 @@ from __future__ import annotations
 
 import contextlib
 import os
+import threading
 from collections.abc import Iterator
 from pathlib import Path
 
 
 def temp_path(path: str | os.PathLike) -> Path:
-    """The temporary sibling used while writing ``path`` (hidden, overwritten by the next write)."""
+    """The temporary sibling used while writing ``path``: hidden, unique to this process and
+    thread (concurrent writers of one file never share it), with ``path``'s suffix (writers that
+    choose a format by the suffix, e.g. movies, see the right one)."""
     path = Path(path)
-    return path.with_name(f".{path.name}.tmp")
+    return path.with_name(f".{path.stem}.{os.getpid()}-{threading.get_ident()}.partial{path.suffix}")
 
 
 def _fsync(path: Path):
@@ -49,7 +52,14 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
         tmp.unlink(missing_ok=True)
 
 
-def write_text(path: str | os.PathLike, text: str):
-    """Write ``text`` to ``path`` atomically."""
+def write_atomic(path: str | os.PathLike, data: str | bytes):
+    """Write ``data`` (text or bytes) to ``path`` atomically.
+
+    Example:
+        >>> import tempfile
+        >>> p = Path(tempfile.mkdtemp()) / "x.txt"
+        >>> write_atomic(p, "hello"); p.read_text()
+        'hello'
+    """
     with atomic_path(path) as tmp:
-        tmp.write_text(text)
+        tmp.write_bytes(data.encode() if isinstance(data, str) else data)

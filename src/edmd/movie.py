@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ._io import atomic_path
 from .analysis._common import axes
 from .plots import sample_particles, slab_mask
 from .state import State
@@ -254,17 +255,12 @@ def make_movie(
     particles = np.arange(first.n) if particles is None else particles
     centre = slab_mask(first, 2, slab, None)[1] if first.dim == 3 else None
     ax = plot_frame(first, color_by, slab=slab, slab_centre=centre, particles=particles)
-    tmp = out.with_name(f".{out.stem}.partial{out.suffix}")
-    try:
-        with writer.saving(ax.figure, str(tmp), dpi):
+    with atomic_path(out) as tmp, writer.saving(ax.figure, str(tmp), dpi):
+        writer.grab_frame()
+        for state in states:
+            ax.collections[0].remove()
+            _draw(ax, state, color_by, particles, slab, centre)
             writer.grab_frame()
-            for state in states:
-                ax.collections[0].remove()
-                _draw(ax, state, color_by, particles, slab, centre)
-                writer.grab_frame()
-        os.replace(tmp, out)
-    finally:
-        tmp.unlink(missing_ok=True)
     return out
 
 

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 from pydantic import ValidationError
 
-from ._io import atomic_path, write_text
+from ._io import atomic_path, write_atomic
 from .checkpoint import Checkpoint, CheckpointData, CheckpointError, load_checkpoint, read_checkpoint, save_final_state
 from .config import Config, ConfigError, dump_config, format_errors, parse_config
 from .engine import EngineError, EngineOptions
@@ -190,7 +190,7 @@ def run_directory(cfg: Config, out: str | Path, progress: bool | None = None, *,
     _warn_trajectory_size(cfg, sim.engine.n, sim.time)  # not sim.state: a full snapshot copy
     _claim(out, force=True)
     run_id = run_identity(cfg, sim.state)
-    write_text(out / "config.toml", config_text(cfg, run_id))
+    write_atomic(out / "config.toml", config_text(cfg, run_id))
     for observer in make_observers(cfg, out, run_id):
         sim.add(observer)
     return _execute(sim, cfg, out, progress)
@@ -357,7 +357,7 @@ def restart_directory(out: str | Path, until_time: float | None = None, progress
     sim = load_checkpoint(path, make_observers(cfg, out, run_id), data=data)
     notes = [f"continued at t = {data.time!r}: {k} {a!r} -> {b!r}" for k, (a, b) in changes.items()]
     previous = _previous_notes(out / "config.toml")
-    write_text(out / "config.toml", config_text(cfg, run_id, previous + notes))
+    write_atomic(out / "config.toml", config_text(cfg, run_id, previous + notes))
     replayed = 0 if data.final_events is None else data.final_events - data.events  # recomputed, not new
     summary = _execute(sim, cfg, out, progress, {"restart_changes": {k: list(v) for k, v in changes.items()}} if changes else None, replayed)
     return summary
@@ -434,16 +434,16 @@ def _execute(sim: Simulation, cfg: Config, out: Path, progress: bool | None, ext
     summary.update(extra or {})
     if failure is not None:
         summary.update(failure)
-        write_text(out / "summary.json", json.dumps(summary, indent=2))
+        write_atomic(out / "summary.json", json.dumps(summary, indent=2))
         saved = f"; the state at t = {sim.time!r} is in {out / 'error_state.gsd'}" if failure["error_state"] else ""
         raise type(failure_exc)(f"{failure_exc}{saved} (summary in {out / 'summary.json'})") from None
     (out / "error_state.gsd").unlink(missing_ok=True)  # a failure of an earlier attempt is over
-    write_text(out / "summary.json", json.dumps(summary, indent=2))  # the run is complete, whatever the figures do
+    write_atomic(out / "summary.json", json.dumps(summary, indent=2))  # the run is complete, whatever the figures do
     if cfg.output.plots and (cfg.output.thermo or cfg.output.trajectory):  # figures need one of them
         from .plots import plot_run
 
         summary["plots"] = [p.name for p in plot_run(out)]
-        write_text(out / "summary.json", json.dumps(summary, indent=2))
+        write_atomic(out / "summary.json", json.dumps(summary, indent=2))
     return summary
 
 

@@ -9,7 +9,7 @@ import os
 
 import numpy as np
 
-from ._io import write_text
+from ._io import write_atomic
 from .simulation import Observer, Simulation, Totals
 from .state import State
 
@@ -175,7 +175,7 @@ class Thermo(Observer):
             writer = csv.DictWriter(buf, fieldnames=columns)
             writer.writeheader()
             writer.writerows(_csv_row(r) for r in self.rows)
-            write_text(self.path, buf.getvalue())
+            write_atomic(self.path, buf.getvalue())
 
     def table(self) -> dict[str, np.ndarray]:
         """The rows as a dict of column arrays."""

@@ -16,11 +16,10 @@
 from __future__ import annotations
 
 import json
-import os
-import threading
 from pathlib import Path
 from typing import Any
 
+from .._io import write_atomic
 from .spec import SweepError
 
 MANIFEST = "sweep.json"
@@ -37,25 +36,6 @@ TABLE = "results"
 def point_dir(out: str | Path, pid: str) -> Path:
     """The directory of point ``pid`` in sweep directory ``out``."""
     return Path(out) / POINTS / pid
-
-
-def write_atomic(path: Path, data: str | bytes):
-    """Write ``data`` to ``path`` through a temporary file and :func:`os.replace`.
-
-    Readers see the old file or the new one, never a part.
-
-    Example:
-        >>> import tempfile
-        >>> p = Path(tempfile.mkdtemp()) / "x.txt"
-        >>> write_atomic(p, "hello"); p.read_text()
-        'hello'
-    """
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
-    with open(tmp, "wb") as f:
-        f.write(data.encode() if isinstance(data, str) else data)
-        f.flush()
-        os.fsync(f.fileno())
-    os.replace(tmp, path)
 
 
 def write_json(path: Path, data: Any):
