@@ -35,6 +35,7 @@ Example:
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -301,12 +302,18 @@ class DEMSimulation(Simulation):
             raise ValueError(f"dt must be a positive number, got {dt!r}")
         else:
             self.contact_time = math.nan
-        self._engine = DEMEngine(state, contact, float(dt), skin * 2.0 * float(state.radius.mean()), gravity)
-        #: uniform acceleration (``d`` components), as :attr:`Simulation.gravity`
-        self.gravity = self._engine.grav[: state.dim].copy()
-        self._time = float(state.time)
-        self.observers = []
-        self.wall_seconds = 0.0
+        self._step = float(dt)
+        self._skin = skin * 2.0 * float(state.radius.mean())
+        super().__init__(state, gravity=gravity)
+
+    def _build_engine(self, state, collision, walls, gravity, thermostat, options):
+        """The DEM engine (the event-driven physics arguments are unused: all ``None``)."""
+        self.params = {
+            "contact": {"type": type(self.contact).__name__, **dataclasses.asdict(self.contact)},
+            "dt": self._step,
+            "gravity": None if gravity is None else [float(g) for g in gravity],
+        }
+        return DEMEngine(state, self.contact, self._step, self._skin, gravity)
 
     @property
     def dt(self) -> float:

@@ -186,21 +186,28 @@ class Simulation:
             thermostat = thermostat_from_dict(thermostat)
         if thermostat is not None and not isinstance(thermostat, Andersen):
             raise TypeError(f"thermostat must be an edmd.Andersen (or its dict), got {thermostat!r}")
-        self._engine = Engine(state, engine, rule=collision, wall=walls, gravity=gravity, thermostat=thermostat)
-        self._engine.compile()  # once per machine (cached on disk); kept out of wall_seconds
+        self._engine = self._build_engine(state, collision, walls, gravity, thermostat, engine)
+        #: uniform acceleration (``d`` components)
         self.gravity = self._engine.grav[: state.dim].copy()
-        _warn_viscoelastic_validity(state, self._engine.rule, self._engine.wall, self.gravity)
-        #: the constructor's physics arguments (saved in checkpoints; new arguments belong here)
-        self.params = {
-            "collision": collide.to_dict(self._engine.rule),
-            "walls": collide.to_dict(self._engine.wall),
-            "gravity": None if gravity is None else [float(g) for g in gravity],
-            "thermostat": None if thermostat is None else thermostat.to_dict(),
-            "engine": dataclasses.asdict(self._engine.options),
-        }
         self._time = float(state.time)
         self.observers: list[Observer] = []
         self.wall_seconds = 0.0
+
+    def _build_engine(self, state, collision, walls, gravity, thermostat, options):
+        """The engine of these physics, compiled; sets :attr:`params` (subclasses with another
+        engine, e.g. :class:`~edmd.dem.DEMSimulation`, override this and nothing else of the set-up)."""
+        engine = Engine(state, options, rule=collision, wall=walls, gravity=gravity, thermostat=thermostat)
+        engine.compile()  # once per machine (cached on disk); kept out of wall_seconds
+        _warn_viscoelastic_validity(state, engine.rule, engine.wall, engine.grav[: state.dim])
+        #: the constructor's physics arguments (saved in checkpoints; new arguments belong here)
+        self.params = {
+            "collision": collide.to_dict(engine.rule),
+            "walls": collide.to_dict(engine.wall),
+            "gravity": None if gravity is None else [float(g) for g in gravity],
+            "thermostat": None if thermostat is None else thermostat.to_dict(),
+            "engine": dataclasses.asdict(engine.options),
+        }
+        return engine
 
     # ------------------------------------------------------------------ state
     @property
