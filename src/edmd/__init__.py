@@ -6,7 +6,8 @@ from .contact import ContactError, Hertz, LinearDashpot
 from .dem import DEMSimulation
 from .engine import CollapseError, EngineError, EngineOptions
 from .initial import lattice, maxwell_boltzmann, radii, random_packing
-from .simulation import Callback, Observer, Simulation, Totals
+from .observer import Callback, Observer, Totals
+from .simulation import Simulation
 from .state import State, StateError
 from .sweeps import SweepError, SweepResult, SweepSpec, sweep, sweep_summary
 from .thermo import Thermo, read_thermo

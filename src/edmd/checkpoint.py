@@ -41,7 +41,8 @@ import numpy as np
 
 from ._core import layout as L
 from ._io import atomic_path
-from .simulation import Observer, Simulation, Totals
+from .observer import Observer, Totals
+from .simulation import Simulation
 from .state import State, StateError
 from .trajectory import frame_to_state, state_to_frame
 

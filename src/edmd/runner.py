@@ -19,7 +19,8 @@ from .config import Config, ConfigError, dump_config, format_errors, parse_confi
 from .engine import EngineError, EngineOptions
 from .memory import check_memory
 from .initial import lattice, maxwell_boltzmann, random_packing
-from .simulation import Observer, Simulation
+from .observer import Observer
+from .simulation import Simulation
 from .state import State
 from .thermo import Thermo, read_thermo
 from .trajectory import Trajectory, read_state, trajectory_run_id, write_state
@@ -463,8 +464,7 @@ def summarize(sim: Simulation, thermo: Thermo | None) -> dict:
         "neighbours": sim.engine.mode,
         "machine": platform.platform(),
     }
-    if sim.engine.emd_rule is not None:
-        summary.update(sim.engine.emd_counters())
+    summary.update(sim.emd_counters())
     if sim.engine.mode == "dem":
         summary["dt"] = sim.dt
         summary["particle_steps_per_second"] = st.n * sim.events / sim.wall_seconds if sim.wall_seconds > 0 else math.nan

@@ -22,7 +22,8 @@ import gsd.hoomd
 import numpy as np
 
 from ._io import atomic_path
-from .simulation import Observer, Simulation, Totals
+from .observer import Observer, Totals
+from .simulation import Simulation
 from .state import State, StateError
 
 
@@ -326,7 +327,7 @@ class Trajectory(Observer):
                 # frame from frame 0, so new entries in later frames would make the old ones unreadable
                 self.run_id = None
             self._file = gsd.hoomd.open(self.path, self.mode, precision="double")
-        frame = state_to_frame(state, totals, pending=sim.engine.emd_rule is not None)
+        frame = state_to_frame(state, totals, pending=sim.soft_contacts)
         if self.run_id is not None:
             frame.log[RUN_ID] = np.frombuffer(self.run_id.encode(), np.uint8)
         _append(self._file, frame)

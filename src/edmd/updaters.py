@@ -3,7 +3,7 @@ r"""Updaters: operations that change the system at exact, equally spaced times (
 An :class:`Updater` is an observer whose firing returns a changed copy of the state; the
 simulation continues from it (a resync: neighbour structures and the calendar are rebuilt)
 and books the change of mechanical energy as ``energy_input``
-(:attr:`~edmd.simulation.Totals.energy_input`, the ``energy_input`` column of thermo.csv), so
+(:attr:`~edmd.observer.Totals.energy_input`, the ``energy_input`` column of thermo.csv), so
 that kinetic + rotational + potential + dissipated - input stays constant to round-off.
 
 Firing times are ``start + k * interval``, cut into the run exactly like observers' times, so a
@@ -27,7 +27,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .simulation import Observer, Simulation, Totals
+from .observer import Observer, Totals
+from .simulation import Simulation
 from .state import State
 
 
