@@ -153,9 +153,9 @@ def test_cli_announces_a_large_trajectory(tmp_path, monkeypatch):
 
 
 def test_compile_warms_the_loop_of_a_feature_set():
-    r = runner.invoke(app, ["compile", "plain", "walls"])
+    r = runner.invoke(app, ["compile", "plain", "walls", "bath"])
     assert r.exit_code == 0, r.output
-    assert "plain:" in r.output and "walls:" in r.output
+    assert "plain:" in r.output and "walls:" in r.output and "bath:" in r.output
     r = runner.invoke(app, ["compile", "walls"])  # now cached
     assert "walls: already cached" in r.output
 
@@ -177,3 +177,6 @@ def test_run_says_when_it_compiles_its_loop(tmp_path, monkeypatch):
     r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "run"), "--no-progress"])
     assert r.exit_code == 0, r.output
     assert "compiling the event loop for plain runs" in r.output
+    import logging  # the notice handler is gone with the command (the CLI may run inside a program)
+
+    assert not logging.getLogger("edmd.compile").handlers

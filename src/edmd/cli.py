@@ -69,9 +69,8 @@ def run(
     from .engine import EngineError
     from .runner import restart_directory, run_directory
 
-    _announce_compiles()
     try:
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), _announce_compiles():
             warnings.showwarning = _warn  # restored on exit (the CLI may run inside another program)
             if restart is not None:
                 if config is not None or start_from is not None or force or debug:
@@ -158,21 +157,29 @@ class _CompileNotice(logging.Handler):
         console.print(f"[dim]{escape(record.getMessage())}[/]", soft_wrap=True)
 
 
+@contextlib.contextmanager
 def _announce_compiles():
+    """Print compile notices while the command runs (removed after: the CLI may run inside another program)."""
     logger = logging.getLogger("edmd.compile")
+    level = logger.level
+    handler = _CompileNotice()
     logger.setLevel(logging.INFO)
-    if not any(isinstance(h, _CompileNotice) for h in logger.handlers):
-        logger.addHandler(_CompileNotice())
+    logger.addHandler(handler)
+    try:
+        yield
+    finally:
+        logger.removeHandler(handler)
+        logger.setLevel(level)
 
 
 @app.command("compile")
 def compile_(
     features: list[str] = typer.Argument(None, help="Feature sets, e.g. plain walls+rough emdstar (default: plain)."),
-    all_: bool = typer.Option(False, "--all", help="Every feature set but debug (14 variants, several minutes)."),
+    all_: bool = typer.Option(False, "--all", help="Every feature set but debug (28 variants, a few minutes)."),
 ):
     """Compile the event loop ahead of time for these feature sets (for a cluster image, sweep workers or CI).
 
-    Features: plain, or walls, rough, viscoelastic, soft, emdstar joined by '+'.
+    Features: plain, or walls, rough, viscoelastic, soft, emdstar, bath joined by '+'.
     """
     from .precompile import FeatureError, all_feature_sets, compile_features, parse_features
 

@@ -97,6 +97,14 @@ class Viscoelastic:
         """Material constant :math:`\\beta_v` [(s/m)^(1/5)] of a pair with reduced mass ``mu``."""
         return 1.5 * self.A * (self.stiffness_factor * math.sqrt(r_eff) / mu) ** 0.4
 
+    def laws(self):
+        """As a rule: smooth spheres with this material's :math:`e_n(v_n)`."""
+        return (L.NORMAL_VISCO, 1.0), L.SMOOTH
+
+    def pack(self, fp: np.ndarray, ip: np.ndarray):
+        """Write this rule's laws into the core's parameter arrays (see :func:`pack`)."""
+        L.pack_laws(self.laws(), fp, ip)
+
     def restitution(self, vn: float, mu: float, r_eff: float) -> float:
         """:math:`e_n` at normal impact speed ``vn`` (interpolated from the exact table)."""
         coeffs, inv = viscoelastic_table()
@@ -146,7 +154,12 @@ class Inelastic:
         _check_range("e_n", self.e_n, 0.0, 1.0)
 
     def laws(self):
-        return _normal_law(self.e_n), (L.TANGENT_SMOOTH, -1.0, 0.0)
+        """``((normal_code, e_n), (tangent_code, beta, mu))`` for the core."""
+        return _normal_law(self.e_n), L.SMOOTH
+
+    def pack(self, fp: np.ndarray, ip: np.ndarray):
+        """Write this rule's laws into the core's parameter arrays (see :func:`pack`)."""
+        L.pack_laws(self.laws(), fp, ip)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -165,7 +178,12 @@ class _NormalTangential:
         object.__setattr__(self, "e_t", None)
 
     def laws(self):
+        """``((normal_code, e_n), (tangent_code, beta, mu))`` for the core."""
         return _normal_law(self.e_n), _tangential_law(self.beta, None, self.mu)
+
+    def pack(self, fp: np.ndarray, ip: np.ndarray):
+        """Write these laws into the core's parameter arrays (see :func:`pack`)."""
+        L.pack_laws(self.laws(), fp, ip)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -211,7 +229,14 @@ class TC:
             raise RuleError(f"TC duration must be positive, got {self.duration!r}")
 
     def laws(self):
-        return rule_laws(self.rule)
+        """The wrapped rule's laws (TC acts at run time, see physics.md §3)."""
+        return self.rule.laws()
+
+    def pack(self, fp: np.ndarray, ip: np.ndarray):
+        """The wrapped rule's parameters and the TC duration."""
+        self.rule.pack(fp, ip)
+        ip[L.IP_TC] = 1
+        fp[L.FP_TC] = self.duration
 
 
 @dataclasses.dataclass(frozen=True)
@@ -228,20 +253,18 @@ class Wall(_NormalTangential):
         0.8
     """
 
+    def pack(self, fp: np.ndarray, ip: np.ndarray):
+        """Write the wall's laws into the core's wall slots (see :func:`pack`)."""
+        L.pack_laws(self.laws(), fp, ip, wall=True)
+
 
 
 Rule = Inelastic | Rough | Viscoelastic | TC | EMDStar
 
 
-def rule_laws(rule) -> tuple[tuple[int, float], tuple[int, float, float]]:
-    """``((normal_code, e_n), (tangent_code, beta, mu))`` of a rule."""
-    if isinstance(rule, Viscoelastic):
-        return _normal_law(rule), (L.TANGENT_SMOOTH, -1.0, 0.0)
-    if isinstance(rule, EMDStar):  # instantaneous fallbacks use the contact law's e_n(v_n)
-        return _normal_law(rule.contact), (L.TANGENT_SMOOTH, -1.0, 0.0)
-    if isinstance(rule, (Inelastic, Rough, TC)):
-        return rule.laws()
-    raise RuleError(f"not a collision rule: {rule!r} (use Inelastic, Rough, Viscoelastic, TC or EMDStar)")
+def _check_rule(rule):
+    if not isinstance(rule, (Inelastic, Rough, Viscoelastic, TC, EMDStar)):
+        raise RuleError(f"not a collision rule: {rule!r} (use Inelastic, Rough, Viscoelastic, TC or EMDStar)")
 
 
 def default_wall(rule) -> Wall:
@@ -272,15 +295,14 @@ def materials(rule, wall) -> list[Viscoelastic]:
 
 
 def pack(rule, wall: Wall, fp: np.ndarray, ip: np.ndarray):
-    """Write the codes and parameters of ``rule`` and ``wall`` into the core's ``fp``/``ip`` arrays."""
-    (ncode, e_n), (tcode, beta, mu) = rule_laws(rule)
-    (wncode, w_en), (wtcode, w_beta, w_mu) = wall.laws()
-    ip[L.IP_NORMAL], ip[L.IP_TANGENT] = ncode, tcode
-    ip[L.IP_WALL_NORMAL], ip[L.IP_WALL_TANGENT] = wncode, wtcode
-    fp[L.FP_EN], fp[L.FP_BETA], fp[L.FP_MU] = e_n, beta, mu
-    fp[L.FP_WALL_EN], fp[L.FP_WALL_BETA], fp[L.FP_WALL_MU] = w_en, w_beta, w_mu
-    ip[L.IP_TC] = int(isinstance(rule, TC))
-    fp[L.FP_TC] = rule.duration if isinstance(rule, TC) else 0.0
+    """Write the codes and parameters of ``rule`` and ``wall`` into the core's ``fp``/``ip`` arrays.
+
+    Each rule packs its own (its ``pack`` method); what rule and walls share (one viscoelastic
+    material, one soft contact law) is packed here.
+    """
+    _check_rule(rule)
+    rule.pack(fp, ip)
+    wall.pack(fp, ip)
     mats = materials(rule, wall)
     if mats:
         fp[L.FP_VISCO_K] = mats[0].stiffness_factor
@@ -290,16 +312,12 @@ def pack(rule, wall: Wall, fp: np.ndarray, ip: np.ndarray):
     if soft is not None:
         ip[L.IP_EMD_MODEL] = soft.code
         fp[L.FP_SOFT_A], fp[L.FP_SOFT_B] = soft.constants()
-    if isinstance(rule, EMDStar):
-        ip[L.IP_EMD] = 1
-        ip[L.IP_EMD_TABLE] = int(rule.tables != "exact")
-        ip[L.IP_EMD_COMM] = int(rule.communication)
-        fp[L.FP_EMD_RTOL] = rule.rtol
 
 
 def uses_rotation(rule, wall: Wall) -> bool:
     """Whether spins change in collisions (rough particles or rough walls)."""
-    return rule_laws(rule)[1][0] != L.TANGENT_SMOOTH or wall.laws()[1][0] != L.TANGENT_SMOOTH
+    _check_rule(rule)
+    return rule.laws()[1][0] != L.TANGENT_SMOOTH or wall.laws()[1][0] != L.TANGENT_SMOOTH
 
 
 _KINDS = {cls.__name__: cls for cls in (Inelastic, Rough, Viscoelastic, TC, Wall, EMDStar, Hertz, LinearDashpot)}

@@ -38,6 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ._core import layout as L
 from ._core import lookup as _lk
 from ._core.bundles import EMDStarData
 from .contact import ContactModel, Hertz, LinearDashpot
@@ -94,6 +95,19 @@ class EMDStar:
         if not (isinstance(self.rtol, float) and 1e-14 <= self.rtol <= 1e-4):
             raise EMDStarError(f"rtol must be a float in [1e-14, 1e-4], got {self.rtol!r}")
         self.table()  # fail early: a missing file or a table of another model
+
+    def laws(self):
+        """Its instantaneous fallbacks' laws: the contact law's central :math:`e_n(v_n)`, smooth."""
+        return (L.NORMAL_SOFT, 1.0), L.SMOOTH
+
+    def pack(self, fp: np.ndarray, ip: np.ndarray):
+        """Write eMD*'s switches and its fallback laws into the core's parameter arrays
+        (the contact law itself is packed with the walls', :func:`edmd.collide.pack`)."""
+        L.pack_laws(self.laws(), fp, ip)
+        ip[L.IP_EMD] = 1
+        ip[L.IP_EMD_TABLE] = int(self.tables != "exact")
+        ip[L.IP_EMD_COMM] = int(self.communication)
+        fp[L.FP_EMD_RTOL] = self.rtol
 
     def table(self) -> RestitutionTable | None:
         """The lookup table used (``None`` for ``tables = "exact"``)."""

@@ -155,6 +155,19 @@ FORMAT1_LAYOUT = {"counters": COUNTERS[:15], "accumulators": ACCUMULATORS[:18], 
 NORMAL_CONST, NORMAL_VISCO = 0, 1
 NORMAL_SOFT = 2  # central e_n(v_n) of the soft contact law (IP_EMD_MODEL, FP_SOFT_A/B)
 TANGENT_SMOOTH, TANGENT_BETA, TANGENT_COULOMB = 0, 1, 2
+#: the tangential law of smooth collisions: ``(code, beta, mu)``
+SMOOTH = (TANGENT_SMOOTH, -1.0, 0.0)
+
+
+def pack_laws(laws, fp, ip, wall=False):
+    """Write a rule's ``((normal_code, e_n), (tangent_code, beta, mu))`` into the particle (or wall) slots."""
+    (ncode, e_n), (tcode, beta, mu) = laws
+    if wall:
+        ip[IP_WALL_NORMAL], ip[IP_WALL_TANGENT] = ncode, tcode
+        fp[FP_WALL_EN], fp[FP_WALL_BETA], fp[FP_WALL_MU] = e_n, beta, mu
+    else:
+        ip[IP_NORMAL], ip[IP_TANGENT] = ncode, tcode
+        fp[FP_EN], fp[FP_BETA], fp[FP_MU] = e_n, beta, mu
 
 # geometry scalars passed to the compiled core as one tuple of floats (no array references
 # travel into hot helpers): box lengths, minimum-image half lengths (inf on open axes),
