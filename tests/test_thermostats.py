@@ -145,3 +145,98 @@ def test_config_section_and_cli_reach_the_bath(tmp_path):
     assert sim.engine.loop.name == "bath"
     with pytest.raises(edmd.ConfigError, match="thermostat.kind"):
         parse_config({"thermostat": {"kind": "nose-hoover", "kT": 1.0, "rate": 1.0}})
+
+
+# ---------------------------------------------------------------- white-noise forcing
+
+
+def test_one_kick_has_the_right_statistics():
+    """Mean energy input of one kick on a gas at rest: m d (N - 1) xi0^2 dt / 2; momentum kept."""
+    n, dim, xi0, dt = 4000, 3, 0.7, 0.02
+    state = edmd.lattice(n, 0.01, dim=dim, mass=2.0)  # at rest, dilute
+    sim = edmd.Simulation(state, forcing=edmd.WhiteNoise(xi0=xi0, interval=dt, seed=11, start=0.0))
+    sim.run(until_time=0.5 * dt)  # the kick at t = 0 only
+    assert int(sim.engine.cnt[L.C_KICKS]) == 1
+    out = sim.state
+    expected = 0.5 * 2.0 * dim * (n - 1) * xi0**2 * dt
+    # relative standard deviation of a chi-square with d(N-1) degrees of freedom: sqrt(2 / (d(N-1))) = 1.3 %
+    assert out.kinetic_energy() == pytest.approx(expected, rel=0.05)
+    assert sim.totals().energy_input == pytest.approx(out.kinetic_energy(), rel=1e-12)
+    assert np.abs(out.momentum()).max() < 1e-9
+    components = out.velocity.ravel() / (xi0 * np.sqrt(dt))
+    assert np.std(components) == pytest.approx(1.0, rel=0.03)
+    assert abs(np.mean(components**4) / np.mean(components**2) ** 2 - 3.0) < 0.2
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_kicks_fire_at_exact_times_in_the_calendar(dim):
+    forcing = edmd.WhiteNoise(xi0=0.5, interval=0.3, seed=1, start=0.1)
+    sim = edmd.Simulation(_gas(dim), e_n=0.9, forcing=forcing)
+    energy = []
+    sim.add(edmd.Callback(lambda s, tot: energy.append(tot.energy_input), interval=0.05))
+    sim.run(until_time=2.0)
+    # kicks at 0.1, 0.4, ..., 1.9: seven of them; the input jumps exactly between the observations around them
+    assert int(sim.engine.cnt[L.C_KICKS]) == 7
+    jumps = [k for k in range(1, len(energy)) if energy[k] != energy[k - 1]]
+    times = [0.05 * k for k in jumps]
+    assert all(any(abs(t - (0.1 + 0.3 * j)) < 0.05 + 1e-12 for j in range(7)) for t in times) and len(jumps) == 7
+    assert forcing.first_tick(0.4) == 1 and forcing.first_tick(0.4000001) == 2 and forcing.first_tick(-5.0) == 0
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("neighbours", ["list", "cells"])
+def test_energy_balance_and_momentum_with_kicks(dim, neighbours):
+    sim = edmd.Simulation(
+        _gas(dim, eta=0.15), collision=edmd.collide.Rough(e_n=0.8, beta=0.2), forcing=edmd.WhiteNoise(xi0=1.0, interval=0.02, seed=4), engine={"neighbours": neighbours}
+    )
+    s0 = sim.state
+    p0 = s0.momentum()
+    sim.run(until_time=10.0)
+    s, tot = sim.state, sim.totals()
+    change = s.kinetic_energy() + s.rotational_energy() - s0.kinetic_energy() - s0.rotational_energy()
+    assert abs(tot.energy_input - tot.dissipated - change) < 1e-9 * tot.energy_input
+    assert np.abs(s.momentum() - p0).max() < 1e-9
+    assert int(sim.engine.cnt[L.C_KICKS]) == 500 and tot.energy_input > 0  # (its mean: test_one_kick_...)
+
+
+def test_white_noise_with_the_bath_and_a_restart_bit_for_bit(tmp_path):
+    def simulation():
+        return edmd.Simulation(
+            _gas(3), e_n=0.9, thermostat=edmd.Andersen(kT=1.0, rate=0.3, seed=2), forcing=edmd.WhiteNoise(xi0=0.5, interval=0.07, seed=8)
+        )
+
+    full = simulation()
+    full.add(edmd.Checkpoint(tmp_path / "c.gsd", interval=1.0))
+    full.run(until_time=3.5)
+    again = edmd.Simulation.from_checkpoint(tmp_path / "c.gsd", observers=[edmd.Checkpoint(tmp_path / "d.gsd", interval=1.0)])
+    assert again.time == 3.0
+    again.run(until_time=3.5)
+    assert np.array_equal(full.state.velocity, again.state.velocity) and full.totals() == again.totals()
+    assert full.engine.loop.name == "bath+noise"
+
+
+def test_white_noise_refuses_emdstar_and_bad_parameters():
+    from edmd.emdstar import EMDStar
+
+    soft = EMDStar(edmd.Hertz(young=1e5, poisson=0.3, A=1e-3))
+    with pytest.raises(edmd.StateError, match="white-noise forcing and eMD\\* cannot be combined"):
+        edmd.Simulation(_gas(3, eta=0.05), collision=soft, forcing=edmd.WhiteNoise(xi0=1.0, interval=0.1))
+    with pytest.raises(ValueError, match="WhiteNoise xi0 must be a positive number, got -1.0"):
+        edmd.WhiteNoise(xi0=-1.0, interval=1.0)
+    with pytest.raises(ValueError, match="WhiteNoise interval must be a positive number"):
+        edmd.WhiteNoise(xi0=1.0, interval=0.0)
+    with pytest.raises(ValueError, match=r"WhiteNoise seed must be an integer in \[0, 2\*\*63\)"):
+        edmd.WhiteNoise(xi0=1.0, interval=1.0, seed=-2)
+    with pytest.raises(TypeError, match="forcing must be an edmd.WhiteNoise"):
+        edmd.Simulation(_gas(3), forcing=edmd.Andersen(kT=1.0, rate=1.0))
+
+
+def test_forcing_config_section():
+    from edmd.config import parse_config
+    from edmd.runner import build_simulation
+
+    cfg = parse_config({"system": {"n": 108, "packing_fraction": 0.1}, "collision": {"rule": "inelastic", "e_n": 0.9}, "forcing": {"kind": "white_noise", "xi0": 0.5, "interval": 0.05}})
+    sim = build_simulation(cfg)
+    assert sim.params["forcing"] == {"kind": "white_noise", "xi0": 0.5, "interval": 0.05, "seed": 0, "start": 0.0}
+    with pytest.raises(edmd.ConfigError, match="forcing.xi0"):
+        parse_config({"forcing": {"kind": "white_noise", "xi0": -1.0, "interval": 0.1}})

@@ -11,9 +11,9 @@ from .simulation import Simulation
 from .state import State, StateError
 from .sweeps import SweepError, SweepResult, SweepSpec, sweep, sweep_summary
 from .thermo import Thermo, read_thermo
-from .thermostats import Andersen
+from .thermostats import Andersen, WhiteNoise
 from .trajectory import Trajectory, read_state, write_state
-from .updaters import Updater, VelocityRescale, WhiteNoise
+from .updaters import Updater, VelocityRescale
 
 __all__ = [
     "Andersen",

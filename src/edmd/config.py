@@ -18,7 +18,7 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from . import collide
-from .thermostats import Andersen
+from .thermostats import Andersen, WhiteNoise
 
 
 class ConfigError(ValueError):
@@ -311,6 +311,19 @@ class ThermostatConfig(_Section):
         return Andersen(kT=self.kT, rate=self.rate, seed=self.seed)
 
 
+class ForcingConfig(_Section):
+    """``[forcing]``: random kicks at fixed intervals (see :class:`edmd.WhiteNoise`)."""
+
+    kind: Literal["white_noise"] = Field(description="white_noise: every particle gets a Gaussian kick every interval, momentum kept")
+    xi0: float = Field(gt=0, allow_inf_nan=False, description="strength: kick variance xi0^2 * interval per component")
+    interval: float = Field(gt=0, allow_inf_nan=False, description="time between kicks")
+    seed: int = Field(0, ge=0, lt=2**63, description="random seed of the kicks")
+    start: float = Field(0.0, allow_inf_nan=False, description="time of kick 0")
+
+    def build(self) -> WhiteNoise:
+        return WhiteNoise(xi0=self.xi0, interval=self.interval, seed=self.seed, start=self.start)
+
+
 class OutputConfig(_Section):
     """``[output]``: which files the run directory gets."""
 
@@ -343,6 +356,7 @@ class Config(_Section):
     integrator: IntegratorConfig = IntegratorConfig()
     contact: ContactConfig | None = None
     thermostat: ThermostatConfig | None = None
+    forcing: ForcingConfig | None = None
 
     @model_validator(mode="after")
     def _integrator(self):
@@ -353,8 +367,8 @@ class Config(_Section):
                 raise ValueError("the DEM takes its dissipation from [contact]; leave [collision] at rule = 'elastic' (no tc)")
             if self.walls.axes:
                 raise ValueError("the DEM needs a periodic box: leave walls.axes empty")
-            if self.thermostat is not None:
-                raise ValueError("[thermostat] acts through events: it needs integrator.kind = 'edmd'")
+            if self.thermostat is not None or self.forcing is not None:
+                raise ValueError("[thermostat] and [forcing] act through events: they need integrator.kind = 'edmd'")
         elif self.contact is not None:
             raise ValueError("[contact] is used by integrator.kind = 'dem' only")
         return self
@@ -540,6 +554,12 @@ plots = true              # PNG figures at the end of the run (also: `edmd plot 
 # kind = "andersen"       # each particle's velocity (and spin) drawn anew from Maxwell-Boltzmann at kT
 # kT = 1.0                #   at the times of its own Poisson process of this rate
 # rate = 0.1
+# seed = 0
+
+# [forcing]               # random kicks (edmd integrator only)
+# kind = "white_noise"    # every particle's velocity gets a Gaussian kick of variance xi0^2 * interval
+# xi0 = 1.0               #   per component every interval (the mean kick removed: momentum kept)
+# interval = 0.01
 # seed = 0
 
 [integrator]

@@ -88,6 +88,7 @@ class DEMEngine:
     mode = "dem"
     emd_rule = None
     thermostat = None
+    forcing = None
 
     def __init__(self, state: State, contact: ContactModel, dt: float, skin: float, gravity=None):
         if not np.all(state.periodic):
@@ -306,7 +307,7 @@ class DEMSimulation(Simulation):
         self._skin = skin * 2.0 * float(state.radius.mean())
         super().__init__(state, gravity=gravity)
 
-    def _build_engine(self, state, collision, walls, gravity, thermostat, options):
+    def _build_engine(self, state, collision, walls, gravity, drivers, options):
         """The DEM engine (the event-driven physics arguments are unused: all ``None``)."""
         self.params = {
             "contact": {"type": type(self.contact).__name__, **dataclasses.asdict(self.contact)},

@@ -19,7 +19,7 @@ import numpy as np
 
 from ._core import layout as L
 from ._core.bath import bath_schedule
-from ._core.bundles import Bath, Lists, Particles, new_events
+from ._core.bundles import Drive, Lists, Particles, new_events
 from ._core.cells import new_grid
 from ._core.jit import in_disk_cache
 from ._core.loop import loop_variant
@@ -83,7 +83,7 @@ class CollapseError(EngineError):
 class Engine:
     """Compiled-core arrays of one system (internal; see :class:`edmd.Simulation`)."""
 
-    def __init__(self, state: State, options: EngineOptions | None = None, rule=None, wall=None, gravity=None, thermostat=None):
+    def __init__(self, state: State, options: EngineOptions | None = None, rule=None, wall=None, gravity=None, thermostat=None, forcing=None):
         self.options = options or EngineOptions()
         self.dim = state.dim
         self.n = state.n
@@ -104,8 +104,12 @@ class Engine:
         self.emd_rule = self.rule if isinstance(self.rule, EMDStar) else None
         collide.pack(self.rule, self.wall, self.fp, self.ip)
         self.thermostat = thermostat
-        if thermostat is not None:
-            thermostat.pack(self.fp, self.ip)
+        self.forcing = forcing
+        for driver in (thermostat, forcing):
+            if driver is not None:
+                driver.pack(self.fp, self.ip)
+        if forcing is not None and self.emd_rule is not None:
+            raise StateError("white-noise forcing and eMD* cannot be combined: a kick would break a pending soft contact")
         self.etab = collide.viscoelastic_table()[0]
         self.ip[L.IP_WALLS] = sum(1 << k for k in range(self.dim) if not self.periodic[k])
         self.ip[L.IP_MAXSTALL] = 2 * self.n + 1000
@@ -128,6 +132,7 @@ class Engine:
             ip[L.IP_NORMAL],
             self.options.debug,
             thermostat is not None,
+            forcing is not None,
         )
         if not self.loop.run_events.signatures and not in_disk_cache(self.loop.run_events):
             log.info("compiling the event loop for %s runs (once; cached afterwards, see `edmd compile`)", self.loop.name)
@@ -194,19 +199,24 @@ class Engine:
         self.part = Particles(P, state.mass[order].copy(), omega, state.inertia[order].copy(), image, np.zeros(n, np.int32), tlast)
         self.emd = emd_bundle(n, self.emd_rule, self._pending_arrays(state, order))
         self.ev = new_events(n)
-        self.bath = self._new_bath()
+        self.drive = self._new_drive()
         self._rebuild()
 
-    def _new_bath(self) -> Bath:
-        """The heat bath's events after a load at ``t_origin`` (no bath: every time ``inf``)."""
+    def _new_drive(self) -> Drive:
+        """The bath's events and the timers after a load at ``t_origin`` (off: every time ``inf``)."""
         axes = np.zeros((2, 3), np.int64)
         axes[0, : self.dim] = 1
         axes[1, 2 if self.dim == 2 else 0 :] = 1  # disks spin about z only
         epoch = np.array([self.t_origin]).view(np.uint64)[0]
-        bath = Bath(np.full(self.n, np.inf), np.array([self.ip[L.IP_BATH_SEED], epoch], np.uint64), axes)
+        key = np.array([epoch, self.ip[L.IP_BATH_SEED], self.ip[L.IP_KICK_SEED]], np.uint64)
+        drive = Drive(np.full(self.n, np.inf), np.full(L.N_TIMERS, np.inf), np.zeros(L.N_TIMERS, np.int64), np.array([self.t_origin]), key, axes)
         if self.thermostat is not None:
-            bath_schedule(bath, self.fp[L.FP_BATH_RATE])
-        return bath
+            bath_schedule(drive, self.fp[L.FP_BATH_RATE])
+        if self.forcing is not None:
+            tick = self.forcing.first_tick(self.t_origin)
+            drive.tick[L.TIMER_KICK] = tick
+            drive.timer_t[L.TIMER_KICK] = self.forcing.tick_time(tick) - self.t_origin
+        return drive
 
     def _pending_arrays(self, state: State, order: np.ndarray):
         """Pending eMD* contacts of ``state`` in internal order (``None``: nothing pending)."""
@@ -249,14 +259,14 @@ class Engine:
             cap = max(self.list_capacity, 1) if self.mode == "list" else 1
             nl = n if self.mode == "list" else 1
             self.lists = Lists(np.zeros((nl, cap), np.int32), np.zeros(nl, np.int32), np.zeros((nl, 3)))
-            if self.loop.setup_events(self.part, self.ev, self.grid, self.lists, geo, self.fp, self.ip, self.cbuf, self.emd, self.bath, 0.0):
+            if self.loop.setup_events(self.part, self.ev, self.grid, self.lists, geo, self.fp, self.ip, self.cbuf, self.emd, self.drive, 0.0):
                 break
             self.list_capacity = int(self.list_capacity * 1.5) + 4
         if self.mode == "list":
             self._trim_lists()
-        keys = np.minimum(self.ev.pair_t, self.ev.aux_t)
+        keys = np.concatenate([np.minimum(self.ev.pair_t, self.ev.aux_t), self.drive.timer_t])  # timers after the particles
         width, nb = calendar_shape(keys, 0.0, self.options.events_per_bucket)
-        self.q = new_queue(n, nb)
+        self.q = new_queue(n + L.N_TIMERS, nb)
         queue_build(self.q, keys, 0.0, width, nb)
         self.acc[L.A_NOW] = 0.0
         self.acc[L.A_LAST_T] = 0.0
@@ -275,7 +285,7 @@ class Engine:
         """Compile the event loop now (a call that processes no event), so that timings exclude it."""
         self.loop.run_events(
             self.part, self.ev, self.q, self.grid, self.lists, self.geo, self.fp, self.ip,
-            self.acc, self.cnt, self.clog, self.cbuf, self.etab, self.emd, self.bath, -math.inf, 0,
+            self.acc, self.cnt, self.clog, self.cbuf, self.etab, self.emd, self.drive, -math.inf, 0,
         )  # fmt: skip
 
     def advance(self, t_stop: float, max_events: int | float = math.inf) -> int:
@@ -295,7 +305,7 @@ class Engine:
             before = int(self.cnt[L.C_EVENTS])
             status = self.loop.run_events(
                 self.part, self.ev, self.q, self.grid, self.lists, geo, self.fp, self.ip,
-                self.acc, self.cnt, self.clog, self.cbuf, self.etab, self.emd, self.bath, t_stop - self.t_origin, chunk,
+                self.acc, self.cnt, self.clog, self.cbuf, self.etab, self.emd, self.drive, t_stop - self.t_origin, chunk,
             )  # fmt: skip
             budget -= int(self.cnt[L.C_EVENTS]) - before
             if status == L.ST_LOG_FULL:

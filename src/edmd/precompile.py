@@ -7,7 +7,8 @@ sweep's workers or CI can warm the cache for the feature sets they will use.
 
 Features are written as ``+``-joined names: ``plain``, ``walls``, ``rough``, ``viscoelastic``,
 ``soft`` (the central restitution of a soft contact law used instantaneously), ``emdstar``,
-``bath`` (the Andersen heat bath, :class:`edmd.Andersen`) and ``debug`` (the per-collision checks
+``bath`` (the Andersen heat bath, :class:`edmd.Andersen`), ``noise`` (white-noise kicks,
+:class:`edmd.WhiteNoise`) and ``debug`` (the per-collision checks
 of ``[engine] debug``), e.g. ``walls+rough+viscoelastic``.
 """
 
@@ -20,7 +21,7 @@ from ._core import layout as L
 from ._core.jit import in_disk_cache
 from ._core.loop import loop_variant
 
-FEATURES = ("walls", "rough", "viscoelastic", "soft", "emdstar", "bath", "debug")
+FEATURES = ("walls", "rough", "viscoelastic", "soft", "emdstar", "bath", "noise", "debug")
 
 
 class FeatureError(ValueError):
@@ -47,6 +48,8 @@ def parse_features(spec: str) -> frozenset[str]:
     found = frozenset(names)
     if "emdstar" in found and found & {"rough", "viscoelastic", "soft"}:
         raise FeatureError("emdstar runs are smooth and use their soft contact law: it cannot be combined with rough, viscoelastic or soft")
+    if {"emdstar", "noise"} <= found:
+        raise FeatureError("white-noise kicks and eMD* cannot be combined")
     if {"viscoelastic", "soft"} <= found:
         raise FeatureError("choose one normal law: viscoelastic or soft")
     return found
@@ -60,7 +63,8 @@ def all_feature_sets() -> list[frozenset[str]]:
             for rough in ((), ("rough",)):
                 sets.append(frozenset(walls + normal + rough))
         sets.append(frozenset(walls + ("emdstar",)))
-    return sets + [s | {"bath"} for s in sets]
+    driven = [s | extra for s in sets for extra in ({"bath"}, {"noise"}, {"bath", "noise"}) if not ("emdstar" in s and "noise" in extra)]
+    return sets + driven
 
 
 def _variant(features: frozenset[str]):
@@ -69,7 +73,9 @@ def _variant(features: frozenset[str]):
         normal = L.NORMAL_VISCO
     elif "soft" in features or "emdstar" in features:
         normal = L.NORMAL_SOFT
-    return loop_variant("walls" in features, "emdstar" in features, "rough" in features, normal, "debug" in features, "bath" in features)
+    return loop_variant(
+        "walls" in features, "emdstar" in features, "rough" in features, normal, "debug" in features, "bath" in features, "noise" in features
+    )
 
 
 def _example(features: frozenset[str]):
@@ -78,7 +84,7 @@ def _example(features: frozenset[str]):
     from .collide import Rough, Viscoelastic
     from .contact import Hertz
     from .emdstar import EMDStar
-    from .thermostats import Andersen
+    from .thermostats import Andersen, WhiteNoise
 
     hertz = Hertz(young=1e5, poisson=0.3, A=1e-3)
     normal = 0.9
@@ -94,7 +100,8 @@ def _example(features: frozenset[str]):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # e.g. the viscoelastic validity warning of this toy system
         bath = Andersen(kT=1.0, rate=0.1) if "bath" in features else None
-        return edmd.Simulation(state, collision=rule, thermostat=bath, engine={"debug": "debug" in features})
+        kicks = WhiteNoise(xi0=1.0, interval=0.1) if "noise" in features else None
+        return edmd.Simulation(state, collision=rule, thermostat=bath, forcing=kicks, engine={"debug": "debug" in features})
 
 
 def compile_features(features: frozenset[str]) -> tuple[str, float, bool]:

@@ -79,7 +79,8 @@ def build_simulation(cfg: Config, state: State | None = None) -> Simulation:
     rule = cfg.collision.build(float(state.mass.mean()))
     walls = cfg.walls.build(cfg.collision.material(), getattr(rule, "contact", None))
     bath = None if cfg.thermostat is None else cfg.thermostat.build()
-    return Simulation(state, collision=rule, walls=walls, gravity=cfg.system.gravity, thermostat=bath, engine=options)
+    kicks = None if cfg.forcing is None else cfg.forcing.build()
+    return Simulation(state, collision=rule, walls=walls, gravity=cfg.system.gravity, thermostat=bath, forcing=kicks, engine=options)
 
 
 def make_observers(cfg: Config, out: Path, run_id: str | None = None) -> list[Observer]:

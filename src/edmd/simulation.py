@@ -16,7 +16,7 @@ from ._core import layout as L
 from .engine import Engine, EngineError, EngineOptions
 from .observer import Observer, Totals
 from .state import State
-from .thermostats import Andersen, thermostat_from_dict
+from .thermostats import Andersen, WhiteNoise, driver_from_dict
 
 
 class Simulation:
@@ -30,6 +30,7 @@ class Simulation:
         walls: restitution of the walls (:class:`edmd.collide.Wall`), elastic and smooth by default.
         gravity: uniform acceleration (``d`` numbers) or ``None``.
         thermostat: a heat bath acting through events (:class:`edmd.Andersen`, or its dict) or ``None``.
+        forcing: random kicks of every particle at fixed intervals (:class:`edmd.WhiteNoise`, or its dict) or ``None``.
         engine: :class:`~edmd.engine.EngineOptions` (or a dict of them).
 
     Example:
@@ -49,6 +50,7 @@ class Simulation:
         walls: collide.Wall | None = None,
         gravity=None,
         thermostat: Andersen | dict | None = None,
+        forcing: WhiteNoise | dict | None = None,
         engine: EngineOptions | dict | None = None,
     ):
         if e_n is not None:
@@ -61,21 +63,20 @@ class Simulation:
             collision = collide.from_dict(collision)
         if isinstance(walls, dict):
             walls = collide.from_dict(walls)
-        if isinstance(thermostat, dict):
-            thermostat = thermostat_from_dict(thermostat)
-        if thermostat is not None and not isinstance(thermostat, Andersen):
-            raise TypeError(f"thermostat must be an edmd.Andersen (or its dict), got {thermostat!r}")
-        self._engine = self._build_engine(state, collision, walls, gravity, thermostat, engine)
+        thermostat = _driver(thermostat, Andersen, "thermostat")
+        forcing = _driver(forcing, WhiteNoise, "forcing")
+        self._engine = self._build_engine(state, collision, walls, gravity, (thermostat, forcing), engine)
         #: uniform acceleration (``d`` components)
         self.gravity = self._engine.grav[: state.dim].copy()
         self._time = float(state.time)
         self.observers: list[Observer] = []
         self.wall_seconds = 0.0
 
-    def _build_engine(self, state, collision, walls, gravity, thermostat, options):
+    def _build_engine(self, state, collision, walls, gravity, drivers, options):
         """The engine of these physics, compiled; sets :attr:`params` (subclasses with another
         engine, e.g. :class:`~edmd.dem.DEMSimulation`, override this and nothing else of the set-up)."""
-        engine = Engine(state, options, rule=collision, wall=walls, gravity=gravity, thermostat=thermostat)
+        thermostat, forcing = drivers
+        engine = Engine(state, options, rule=collision, wall=walls, gravity=gravity, thermostat=thermostat, forcing=forcing)
         engine.compile()  # once per machine (cached on disk); kept out of wall_seconds
         _warn_viscoelastic_validity(state, engine.rule, engine.wall, engine.grav[: state.dim])
         #: the constructor's physics arguments (saved in checkpoints; new arguments belong here)
@@ -84,6 +85,7 @@ class Simulation:
             "walls": collide.to_dict(engine.wall),
             "gravity": None if gravity is None else [float(g) for g in gravity],
             "thermostat": None if thermostat is None else thermostat.to_dict(),
+            "forcing": None if forcing is None else forcing.to_dict(),
             "engine": dataclasses.asdict(engine.options),
         }
         return engine
@@ -158,8 +160,8 @@ class Simulation:
 
     @property
     def has_energy_input(self) -> bool:
-        """Whether something puts energy in (updaters or a thermostat): ``Totals.energy_input`` counts it."""
-        return self.has_updaters or self._engine.thermostat is not None
+        """Whether something puts energy in (updaters, a thermostat, forcing): ``Totals.energy_input`` counts it."""
+        return self.has_updaters or self._engine.thermostat is not None or self._engine.forcing is not None
 
     def apply_update(self, old: State, new: State):
         """Continue from ``new``, the system at ``old.time`` as an updater changed it.
@@ -264,6 +266,15 @@ class Simulation:
         """Close every observer (flush files)."""
         for o in self.observers:
             o.close()
+
+
+def _driver(value, kind: type, name: str):
+    """A thermostat or forcing argument: ``None``, a ``kind``, or its dict."""
+    if isinstance(value, dict):
+        value = driver_from_dict(value, kind)
+    if value is not None and not isinstance(value, kind):
+        raise TypeError(f"{name} must be an edmd.{kind.__name__} (or its dict), got {value!r}")
+    return value
 
 
 def engine_options(options: dict) -> EngineOptions:

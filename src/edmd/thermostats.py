@@ -1,4 +1,4 @@
-r"""Thermostats that act through events of the compiled core.
+r"""Thermostats and forcing that act through events of the compiled core.
 
 :class:`Andersen` is the heat bath of H. C. Andersen (J. Chem. Phys. 72, 2384 (1980)) in its
 event-driven form: every particle meets the bath at the times of its own Poisson process of rate
@@ -19,8 +19,9 @@ The random numbers come from a counter-based generator keyed by the seed, the pa
 event counter, and the time of the engine's last load (:mod:`edmd._core.rng`): no generator
 state exists, and a run restarted from a checkpoint continues bit for bit.
 
-The thermostats of :mod:`edmd.updaters` (velocity rescaling, white noise) act on the whole
-system at fixed intervals instead.
+:class:`WhiteNoise` kicks every particle at fixed intervals: a global event of the calendar
+(``_core/forcing.py``), the stochastic thermostat of granular gases. :mod:`edmd.updaters`
+(velocity rescaling, your own) changes the system from Python at fixed intervals instead.
 """
 
 from __future__ import annotations
@@ -61,8 +62,7 @@ class Andersen:
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
                 raise ValueError(f"Andersen {name} must be a positive number, got {value!r}")
-        if not (isinstance(self.seed, int | np.integer) and not isinstance(self.seed, bool) and 0 <= self.seed < 2**63):
-            raise ValueError(f"Andersen seed must be an integer in [0, 2**63), got {self.seed!r}")
+        _check_seed("Andersen", self.seed)
 
     def pack(self, fp: np.ndarray, ip: np.ndarray):
         """Write the bath's parameters into the core's parameter arrays."""
@@ -76,24 +76,101 @@ class Andersen:
         return {"kind": "andersen", **dataclasses.asdict(self)}
 
 
-THERMOSTATS = {"andersen": Andersen}
+@dataclasses.dataclass(frozen=True)
+class WhiteNoise:
+    r"""White-noise forcing: every particle gets a random kick every ``interval`` (Williams &
+    MacKintosh, PRE 54, R9 (1996); van Noije & Ernst, Granular Matter 1, 57 (1998)).
 
+    At the times :math:`t_j = t_{\rm start} + j\,\Delta t` every velocity changes by
+    :math:`\xi_0\sqrt{\Delta t}\,(\mathbf g_i - \sum_k m_k\mathbf g_k / M)` with independent
+    standard normal :math:`\mathbf g_i`: a variance of :math:`\xi_0^2\Delta t` per component, less
+    the mass-weighted mean kick, so the total momentum stays what it was. For :math:`N`
+    particles of equal mass :math:`m` in :math:`d` dimensions the mean energy input is
+    :math:`\tfrac12 m d (N-1)\xi_0^2` per unit time. Each kick is one global event of the calendar
+    (all particles streamed, kicked and re-predicted, no rebuild), booked as ``energy_input``.
+    The kicks are a pure function of (seed, tick, particle): restarts continue bit for bit.
 
-def thermostat_from_dict(data: dict | None) -> Andersen | None:
-    """The thermostat of :meth:`Andersen.to_dict` (``None`` stays ``None``).
+    Args:
+        xi0: forcing strength :math:`\xi_0` (> 0).
+        interval: time :math:`\Delta t` between kicks (> 0); choose it well below the mean free time.
+        seed: seed of the random kicks (an integer in ``[0, 2**63)``).
+        start: absolute time of kick 0 (the first kick of a run is the first tick at or after its start).
 
     Example:
-        >>> thermostat_from_dict({"kind": "andersen", "kT": 1.0, "rate": 0.5})
+        >>> import edmd
+        >>> state = edmd.maxwell_boltzmann(edmd.random_packing(500, 0.05, seed=1), kT=1.0, seed=2)
+        >>> sim = edmd.Simulation(state, e_n=0.8, forcing=edmd.WhiteNoise(xi0=1.0, interval=0.05, seed=3))
+        >>> sim.run(until_time=1.0)
+        >>> sim.totals().energy_input > 0, bool(abs(sim.state.momentum()).max() < 1e-9)
+        (True, True)
+    """
+
+    xi0: float
+    interval: float
+    seed: int = 0
+    start: float = 0.0
+
+    def __post_init__(self):
+        for name in ("xi0", "interval"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+                raise ValueError(f"WhiteNoise {name} must be a positive number, got {value!r}")
+        if not (isinstance(self.start, int | float) and math.isfinite(self.start)):
+            raise ValueError(f"WhiteNoise start must be a finite time, got {self.start!r}")
+        _check_seed("WhiteNoise", self.seed)
+
+    def tick_time(self, tick: int) -> float:
+        """Absolute time of kick ``tick`` (by multiplication: it never drifts)."""
+        return self.start + tick * self.interval
+
+    def first_tick(self, t: float) -> int:
+        """The first kick at or after time ``t``."""
+        tick = max(0, math.ceil((t - self.start) / self.interval))
+        while tick > 0 and self.tick_time(tick - 1) >= t:
+            tick -= 1
+        while self.tick_time(tick) < t:
+            tick += 1
+        return tick
+
+    def pack(self, fp: np.ndarray, ip: np.ndarray):
+        """Write the forcing's parameters into the core's parameter arrays."""
+        ip[L.IP_KICK] = 1
+        ip[L.IP_KICK_SEED] = int(self.seed)
+        fp[L.FP_KICK_XI0] = float(self.xi0)
+        fp[L.FP_KICK_INTERVAL] = float(self.interval)
+        fp[L.FP_KICK_START] = float(self.start)
+
+    def to_dict(self) -> dict:
+        """JSON-ready parameters (``kind`` names the forcing)."""
+        return {"kind": "white_noise", **dataclasses.asdict(self)}
+
+
+def _check_seed(owner: str, seed):
+    if not (isinstance(seed, int | np.integer) and not isinstance(seed, bool) and 0 <= seed < 2**63):
+        raise ValueError(f"{owner} seed must be an integer in [0, 2**63), got {seed!r}")
+
+
+DRIVERS = {"andersen": Andersen, "white_noise": WhiteNoise}
+
+
+def driver_from_dict(data: dict | None, expected: type):
+    """The thermostat or forcing of a ``to_dict()`` (``None`` stays ``None``), checked to be an ``expected``.
+
+    Example:
+        >>> driver_from_dict({"kind": "andersen", "kT": 1.0, "rate": 0.5}, Andersen)
         Andersen(kT=1.0, rate=0.5, seed=0)
-        >>> thermostat_from_dict({"kind": "nose", "kT": 1.0})
+        >>> driver_from_dict({"kind": "nose", "kT": 1.0}, Andersen)
         Traceback (most recent call last):
         ...
-        ValueError: unknown thermostat kind 'nose'; the kinds are andersen
+        ValueError: unknown kind 'nose'; the kinds are andersen, white_noise
     """
     if data is None:
         return None
     data = dict(data)
     kind = data.pop("kind", None)
-    if kind not in THERMOSTATS:
-        raise ValueError(f"unknown thermostat kind {kind!r}; the kinds are {', '.join(THERMOSTATS)}")
-    return THERMOSTATS[kind](**data)
+    if kind not in DRIVERS:
+        raise ValueError(f"unknown kind {kind!r}; the kinds are {', '.join(DRIVERS)}")
+    driver = DRIVERS[kind](**data)
+    if not isinstance(driver, expected):
+        raise ValueError(f"{kind} is not a {expected.__name__}")
+    return driver

@@ -107,29 +107,3 @@ class VelocityRescale(Updater):
         state.pending_velocity = scale * state.pending_velocity
         return state
 
-
-class WhiteNoise(Updater):
-    r"""Random kicks every ``interval``: white-noise forcing of a granular gas (stochastic thermostat).
-
-    Each particle's velocity gets an independent Gaussian kick of variance
-    :math:`\xi_0^2\,\Delta t` per component (:math:`\Delta t` = ``interval``); the mass-weighted
-    mean kick is then removed, so the total momentum does not change. In a gas of :math:`N`
-    particles of equal mass the mean energy input per kick is
-    :math:`\tfrac12 m\,d\,(N-1)\,\xi_0^2\Delta t`.
-
-    Example:
-        >>> WhiteNoise(xi0=0.5, interval=0.01, seed=4).xi0
-        0.5
-    """
-
-    def __init__(self, xi0: float, interval: float, start: float | None = None, seed: int = 0):
-        super().__init__(interval, start, seed)
-        if not (np.isfinite(xi0) and xi0 > 0):
-            raise ValueError(f"xi0 must be positive, got {xi0!r}")
-        self.xi0 = float(xi0)
-
-    def update(self, state: State, rng: np.random.Generator) -> State:
-        kick = rng.normal(0.0, self.xi0 * np.sqrt(self.interval), size=state.velocity.shape)
-        kick -= (state.mass @ kick) / state.mass.sum()
-        state.velocity = state.velocity + kick
-        return state

@@ -1,7 +1,7 @@
 r"""The Andersen heat bath as single-particle events (H. C. Andersen, J. Chem. Phys. 72, 2384 (1980)).
 
 Each particle meets the bath at the times of its own Poisson process of rate :math:`\nu`
-(kind ``AUX_BATH``, in the calendar like any other event; :class:`.bundles.Bath` holds the
+(kind ``AUX_BATH``, in the calendar like any other event; :class:`.bundles.Drive` holds the
 next time of each particle). At a bath event the particle's velocity, and its spin when the
 rule is rough, are drawn anew from Maxwell–Boltzmann at :math:`k_BT`:
 
@@ -33,30 +33,30 @@ SCHEDULE = np.uint64(1 << 40)
 
 
 @jit
-def bath_schedule(bath, rate):
+def bath_schedule(drive, rate):
     """Draw every particle's first bath time after a load (local time 0)."""
-    seed, epoch = bath.key[0], bath.key[1]
-    for i in range(bath.next_t.shape[0]):
-        bath.next_t[i] = -math.log(1.0 - uniform(stream(seed, epoch, i, SCHEDULE), 0)) / rate
+    epoch, seed = drive.key[0], drive.key[1]
+    for i in range(drive.bath_t.shape[0]):
+        drive.bath_t[i] = -math.log(1.0 - uniform(stream(seed, epoch, i, SCHEDULE), 0)) / rate
 
 
 @jit
-def bath_event(i, t, P, mass, omega, inertia, count, bath, fp, ip, acc, rough):
+def bath_event(i, t, P, mass, omega, inertia, count, drive, fp, acc, rough):
     r"""Particle ``i`` (streamed to ``t``) meets the bath: new velocity (and spin if ``rough``), next bath time.
 
     Books the change of kinetic (and rotational) energy as ``energy_input`` and updates the
     running translational kinetic energy and momentum (``acc``). Only the components that
-    ``bath.axes`` marks are drawn (row 0 velocity, row 1 spin): disks keep :math:`v_z = 0`
+    ``drive.axes`` marks are drawn (row 0 velocity, row 1 spin): disks keep :math:`v_z = 0`
     exactly and spin about ``z`` only.
     """
     kT = fp[L.FP_BATH_KT]
-    z = stream(bath.key[0], bath.key[1], i, count[i])
+    z = stream(drive.key[1], drive.key[0], i, count[i])
     s = math.sqrt(kT / mass[i])
     g = normal_pair(z, 1) + normal_pair(z, 3) + normal_pair(z, 5)
     de = 0.0
     for k in range(3):
         old = P[i, L.VX + k]
-        new = s * g[k] if bath.axes[0, k] else 0.0
+        new = s * g[k] if drive.axes[0, k] else 0.0
         de += 0.5 * mass[i] * (new * new - old * old)
         acc[L.A_PX + k] += mass[i] * (new - old)
         P[i, L.VX + k] = new
@@ -64,8 +64,8 @@ def bath_event(i, t, P, mass, omega, inertia, count, bath, fp, ip, acc, rough):
     if rough:
         w = math.sqrt(kT / inertia[i])
         for k in range(3):
-            new = w * g[3 + k] if bath.axes[1, k] else 0.0
+            new = w * g[3 + k] if drive.axes[1, k] else 0.0
             de += 0.5 * inertia[i] * (new * new - omega[i, k] * omega[i, k])
             omega[i, k] = new
     acc[L.A_ENERGY_INPUT] += de
-    bath.next_t[i] = t - math.log(1.0 - uniform(z, 0)) / fp[L.FP_BATH_RATE]
+    drive.bath_t[i] = t - math.log(1.0 - uniform(z, 0)) / fp[L.FP_BATH_RATE]

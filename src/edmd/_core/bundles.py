@@ -85,12 +85,16 @@ class EMDStarData(NamedTuple):
     work: np.ndarray  #: (9, 3) scratch of the lab-frame update (r1, r2, v1, v2, r1A, r2A, V, D1, D2)
 
 
-class Bath(NamedTuple):
-    """The Andersen heat bath's single-particle events (:mod:`.bath`)."""
+class Drive(NamedTuple):
+    """What drives the system: the Andersen bath's per-particle events (:mod:`.bath`) and the
+    global timers in the calendar (:mod:`.forcing`; timer ``k`` is calendar entry ``N + k``)."""
 
-    next_t: np.ndarray  #: (N,) local time of each particle's next bath event (inf: no bath)
-    key: np.ndarray  #: (2,) uint64: seed, and the bit pattern of the load time (the RNG epoch)
-    axes: np.ndarray  #: (2, 3) int64: velocity (row 0) and spin (row 1) components the bath draws
+    bath_t: np.ndarray  #: (N,) local time of each particle's next bath event (inf: no bath)
+    timer_t: np.ndarray  #: (N_TIMERS,) local time of each timer's next tick (inf: off)
+    tick: np.ndarray  #: (N_TIMERS,) int64 index of that tick (its time is start + tick * interval)
+    origin: np.ndarray  #: (1,) the absolute time of local time 0 (tick times are absolute)
+    key: np.ndarray  #: (3,) uint64: the bit pattern of the load time (the RNG epoch), bath seed, forcing seed
+    axes: np.ndarray  #: (2, 3) int64: velocity (row 0) and spin (row 1) components that random draws touch
 
 
 def new_events(n: int) -> Events:

@@ -26,6 +26,10 @@ CONTACT_DISCARDED = 0  # exception b) left the pair separating: nothing happens
 CONTACT_SOFT = 1  # an A event: the pair was relocated, its B events are pending
 CONTACT_INSTANT = 2  # the instantaneous rule (exception a, overlaps, a failed solve)
 
+# global timers: calendar entry N + TIMER_* (see forcing.py)
+TIMER_KICK = 0  # white-noise forcing
+N_TIMERS = 1
+
 # neighbour structure
 NB_LIST = 0
 NB_CELLS = 1
@@ -63,10 +67,11 @@ COUNTERS = (
     "emd_exceptions_b",  # eMD* exception b): a particle with a pending B event reached a new contact (particle or wall)
     "emd_fallbacks",  # eMD*: contacts resolved by the instantaneous rule (exception a, overlapping pairs)
     "bath_events",  # Andersen heat bath: velocities drawn anew
+    "kicks",  # white-noise forcing: kicks of the whole system
 )
 (
     C_EVENTS, C_COLL, C_STALE, C_AUX, C_REBUILD, C_WALL, C_LOG, C_ZENO_RUN, C_BAD_I, C_BAD_J,
-    C_TC_ELASTIC, C_EMD_A, C_EMD_EXC_A, C_EMD_EXC_B, C_EMD_FALLBACK, C_BATH,
+    C_TC_ELASTIC, C_EMD_A, C_EMD_EXC_A, C_EMD_EXC_B, C_EMD_FALLBACK, C_BATH, C_KICKS,
 ) = range(len(COUNTERS))  # fmt: skip
 N_COUNTERS = len(COUNTERS)
 
@@ -112,10 +117,13 @@ IPARAMS = (
     "emd_communication",  # eMD*: post-collisional communication in exception b)
     "bath",  # Andersen heat bath on
     "bath_seed",  # its random seed
+    "kick",  # white-noise forcing on
+    "kick_seed",  # its random seed
 )
 (
     IP_MODE, IP_LOG_CAP, IP_MAXSTALL, IP_DEBUG, IP_NORMAL, IP_TANGENT, IP_TC, IP_WALL_NORMAL,
     IP_WALL_TANGENT, IP_WALLS, IP_EMD, IP_EMD_MODEL, IP_EMD_TABLE, IP_EMD_COMM, IP_BATH, IP_BATH_SEED,
+    IP_KICK, IP_KICK_SEED,
 ) = range(len(IPARAMS))  # fmt: skip
 N_IP = len(IPARAMS)
 
@@ -139,11 +147,14 @@ FPARAMS = (
     "emd_rtol",  # eMD*: tolerance of the direct two-body solver
     "bath_kT",  # Andersen heat bath: temperature
     "bath_rate",  # and the rate of each particle's bath events
+    "kick_xi0",  # white-noise forcing: strength (variance xi0^2 per unit time and component)
+    "kick_interval",  # time between kicks
+    "kick_start",  # absolute time of kick 0
 )
 (
     FP_SKIN, FP_DEBUG_TOL, FP_EN, FP_BETA, FP_MU, FP_TC, FP_VISCO_K, FP_VISCO_A, FP_ETAB_INV,
     FP_WALL_EN, FP_WALL_BETA, FP_WALL_MU, FP_MTOT, FP_SOFT_A, FP_SOFT_B, FP_EMD_RTOL, FP_BATH_KT,
-    FP_BATH_RATE,
+    FP_BATH_RATE, FP_KICK_XI0, FP_KICK_INTERVAL, FP_KICK_START,
 ) = range(len(FPARAMS))  # fmt: skip
 N_FP = len(FPARAMS)
 

@@ -28,6 +28,7 @@ from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTA
 from .bath import bath_event
 from .cells import bin_all, cell_insert, cell_of_point, cell_remove, crossing_time, walk_around, walk_cells, walk_next
 from .collide import collide_pair, collide_wall
+from .forcing import white_noise_kick
 from .emdstar import contact_map, execute_b, is_pending, relocation_blocked
 from .nblist import SQRT3, build_lists, rebuild_list, shell_exit_time
 from .predict import INF, advance, contact_time, flight, gap_time, relative_to, separation, wrap3
@@ -384,7 +385,7 @@ class Loop(NamedTuple):
     name: str
 
 
-def variant_name(walls: bool, emd_on: bool, rough: bool, normal: int, debug: bool = False, bath: bool = False) -> str:
+def variant_name(walls: bool, emd_on: bool, rough: bool, normal: int, debug: bool = False, bath: bool = False, noise: bool = False) -> str:
     """Readable name of a feature set, e.g. ``"walls+rough+viscoelastic"`` (``"plain"``: none).
 
     Example:
@@ -398,6 +399,8 @@ def variant_name(walls: bool, emd_on: bool, rough: bool, normal: int, debug: boo
         parts.append(law)
     if bath:
         parts.append("bath")
+    if noise:
+        parts.append("noise")
     if debug:
         parts.append("debug")
     return "+".join(parts) or "plain"
@@ -407,7 +410,7 @@ _VARIANTS: dict[tuple, Loop] = {}
 _SETUPS: dict[tuple, Callable] = {}
 
 
-def loop_variant(walls: bool, emd_on: bool, rough: bool, normal: int, debug: bool = False, bath: bool = False) -> Loop:
+def loop_variant(walls: bool, emd_on: bool, rough: bool, normal: int, debug: bool = False, bath: bool = False, noise: bool = False) -> Loop:
     """The event loop specialised to the physics of a run, compiled (and cached on disk) on first use.
 
     The features are compile-time constants of the loop (closure variables): Numba prunes the
@@ -424,6 +427,7 @@ def loop_variant(walls: bool, emd_on: bool, rough: bool, normal: int, debug: boo
         normal: the normal law of pair collisions (``NORMAL_*``).
         debug: the per-collision checks of debug mode (``_debug_check``).
         bath: the Andersen heat bath's events (:mod:`.bath`).
+        noise: white-noise kicks, a global timer in the calendar (:mod:`.forcing`).
 
     Example:
         >>> from edmd._core import layout as L
@@ -431,7 +435,7 @@ def loop_variant(walls: bool, emd_on: bool, rough: bool, normal: int, debug: boo
         >>> loop is loop_variant(False, False, False, L.NORMAL_CONST)
         True
     """
-    key = (bool(walls), bool(emd_on), bool(rough), int(normal), bool(debug), bool(bath))
+    key = (bool(walls), bool(emd_on), bool(rough), int(normal), bool(debug), bool(bath), bool(noise))
     if key not in _VARIANTS:
         aux = (key[0], key[1], key[5])  # the set-up depends on the single-particle events only
         if aux not in _SETUPS:
@@ -440,9 +444,9 @@ def loop_variant(walls: bool, emd_on: bool, rough: bool, normal: int, debug: boo
     return _VARIANTS[key]
 
 
-def _make_loop(walls, emd_on, rough, normal, debug, bath_on):
+def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on):
     @jit
-    def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, etab, emd, bath, t_stop, max_events):
+    def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, etab, emd, drive, t_stop, max_events):
         """Process events in time order until ``t_stop`` (exclusive) or ``max_events``.
 
         Returns a status code of :mod:`.layout` (``ST_*``); ``acc[A_NOW]`` holds the time of the
@@ -452,7 +456,8 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on):
         """
         P, mass, omega, inertia, image, count, tlast = part
         ptb = emd.pending_until
-        bath_t = bath.next_t
+        bath_t = drive.bath_t
+        n = P.shape[0]
         key = q.key
         mode = ip[L.IP_MODE]
         log_cap = ip[L.IP_LOG_CAP]
@@ -478,6 +483,14 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on):
             done += 1
             cnt[L.C_EVENTS] += 1
             acc[L.A_NOW] = t
+            if kick_on and i >= n:  # a global timer (calendar entry n + TIMER_KICK): kick everyone
+                integrate_kinetic(acc, t, geo, total_mass)
+                white_noise_kick(t, P, mass, count, drive, fp, acc, geo)
+                cnt[L.C_KICKS] += 1
+                for p in range(n):  # called, not inlined: no predictor copy for a rare global event
+                    _repredict(np.int64(p), t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb, bath_t)
+                queue_update(q, i, drive.timer_t[L.TIMER_KICK])
+                continue
             # the rare events (stale pair events, shell exits, walls, B events) re-predict at the
             # shared site at the end of the loop body. Its shape (a pass over the particles to
             # re-predict, flags, an int64 j) is the one measured fastest: simpler equivalents,
@@ -506,7 +519,7 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on):
                         _finish_contact(i, i, -1, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd, bath_t)
                     advance(P, i, t, geo)
                     integrate_kinetic(acc, t, geo, total_mass)
-                    bath_event(i, t, P, mass, omega, inertia, count, bath, fp, ip, acc, rough)
+                    bath_event(i, t, P, mass, omega, inertia, count, drive, fp, acc, rough)
                     count[i] += 1
                     cnt[L.C_BATH] += 1
                 elif kind == L.AUX_SHELL:  # the particle left the shell of its neighbour list
@@ -583,7 +596,7 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on):
 
 def _make_setup(walls, emd_on, bath_on):
     @jit
-    def setup_events(part, ev, grid, lists, geo, fp, ip, cbuf, emd, bath, t):
+    def setup_events(part, ev, grid, lists, geo, fp, ip, cbuf, emd, drive, t):
         """Bin every particle (positions or list centres) and predict all events at time ``t``.
 
         Returns ``False`` if a neighbour list ran out of capacity.
@@ -601,7 +614,7 @@ def _make_setup(walls, emd_on, bath_on):
             bin_all(P, geo, grid)
         for i in range(n):
             predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
-            predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, emd.pending_until, bath_on, bath.next_t)
+            predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, emd.pending_until, bath_on, drive.bath_t)
         return True
 
     return setup_events

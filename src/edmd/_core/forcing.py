@@ -1,0 +1,77 @@
+r"""White-noise forcing as a global event of the calendar (Williams & MacKintosh, PRE 54, R9 (1996);
+van Noije & Ernst, Granular Matter 1, 57 (1998)).
+
+Timers are calendar entries ``N + k`` after the ``N`` particles (``TIMER_*`` in
+:mod:`.layout`), as Smallenburg's EDMD keeps pseudo-particles and DynamO "System" events: the
+loop pops them like any event, in time order. Tick ``j`` of a timer is at the absolute time
+:math:`t_j = t_{\rm start} + j\,\Delta t` (computed by multiplication, so it never drifts and
+does not depend on when the engine was last rebuilt).
+
+At a kick, every particle is streamed to :math:`t_j` and its velocity changes by
+
+.. math::
+    \Delta\mathbf v_i = \xi_0\sqrt{\Delta t}\,\Big(\mathbf g_i - \frac{\sum_k m_k\mathbf g_k}{\sum_k m_k}\Big),
+    \qquad \mathbf g_i \sim \mathcal N(0, \mathbb 1),
+
+so each component has variance :math:`\xi_0^2\Delta t\,(1 - m_i/M)` and the total momentum does not
+change (the mass-weighted mean kick is removed). The random numbers are keyed by (seed, tick,
+particle) (:mod:`.rng`): the kicks do not depend on resyncs or checkpoints at all.
+"""
+
+import math
+
+import numpy as np
+
+from . import layout as L
+from .jit import jit, leaf
+from .predict import advance
+from .rng import normal_pair, stream
+
+#: the fourth part of the key of the kicks (bath draws use event counters and 2**40)
+KICK = np.uint64(1 << 41)
+
+
+def tick_time(start, interval, tick):
+    """Absolute time of tick ``tick`` of a timer started at ``start`` (the core computes it alike)."""
+    return start + tick * interval
+
+
+@leaf
+def _kick_normals(seed, tick, p):
+    z = stream(seed, tick, p, KICK)
+    g0, g1 = normal_pair(z, 0)
+    g2, _g3 = normal_pair(z, 2)
+    return g0, g1, g2
+
+
+@jit
+def white_noise_kick(t, P, mass, count, drive, fp, acc, geo):
+    """Kick every particle at local time ``t`` (see the module doc); books the energy input and
+    schedules the next tick. The caller re-predicts every particle."""
+    n = P.shape[0]
+    seed, tick = drive.key[2], drive.tick[L.TIMER_KICK]
+    s = fp[L.FP_KICK_XI0] * math.sqrt(fp[L.FP_KICK_INTERVAL])
+    mx = my = mz = total = 0.0
+    for p in range(n):
+        gx, gy, gz = _kick_normals(seed, tick, p)
+        mx += mass[p] * gx
+        my += mass[p] * gy
+        mz += mass[p] * gz
+        total += mass[p]
+    mean = (mx / total, my / total, mz / total)
+    de = 0.0
+    for p in range(n):
+        advance(P, p, t, geo)
+        g = _kick_normals(seed, tick, p)  # drawn again: a pure function of the key
+        for k in range(3):
+            if drive.axes[0, k]:
+                dv = s * (g[k] - mean[k])
+                v = P[p, L.VX + k]
+                de += 0.5 * mass[p] * ((v + dv) * (v + dv) - v * v)
+                acc[L.A_PX + k] += mass[p] * dv
+                P[p, L.VX + k] = v + dv
+        count[p] += 1
+    acc[L.A_KE] += de
+    acc[L.A_ENERGY_INPUT] += de
+    drive.tick[L.TIMER_KICK] = tick + 1
+    drive.timer_t[L.TIMER_KICK] = (fp[L.FP_KICK_START] + (tick + 1) * fp[L.FP_KICK_INTERVAL]) - drive.origin[0]
