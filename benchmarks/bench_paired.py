@@ -1,0 +1,93 @@
+"""Paired speed of two builds of edmd: alternating chunks of events in two live processes.
+
+Each build (a source tree with ``src/edmd``) runs in its own process pinned to one core, from the
+same amorphous start, equilibrated for 20 events per particle (which also compiles). The two
+processes then take turns, one chunk of ``--chunk`` events per particle each (the order flips
+every round), so a slow spell of the shared host hits both builds of a round alike. Reported:
+per build the best and the median M collisions/s (the loop's own CPU-time timer), and the
+median, min and max of the per-round ratio B/A.
+
+Usage::
+
+    python benchmarks/bench_paired.py OLD_TREE NEW_TREE --n 10976 --eta 0.5 --neighbours list
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import time
+
+from bench_hard_spheres import write_results
+
+
+def worker(n: int, eta: float, neighbours: str, chunk: float) -> None:
+    """Serve chunks: read a line, run ``chunk * n`` events, print the collision rate."""
+    import edmd
+
+    state = edmd.maxwell_boltzmann(edmd.random_packing(n, eta, dim=3, seed=1), 1.0, seed=2)
+    sim = edmd.Simulation(state, engine={"neighbours": neighbours})
+    sim.run(max_events=20 * n)
+    print("ready", flush=True)
+    for _line in sys.stdin:
+        c0, t0 = sim.collisions, time.process_time()
+        sim.run(max_events=int(chunk * n))
+        print((sim.collisions - c0) / (time.process_time() - t0), flush=True)
+
+
+def start(tree: str, args) -> subprocess.Popen:
+    env = {**os.environ, "PYTHONPATH": os.path.join(os.path.abspath(tree), "src")}
+    cmd = [sys.executable, __file__, "--worker", "--n", str(args.n), "--eta", str(args.eta), "--neighbours", args.neighbours, "--chunk", str(args.chunk)]
+    proc = subprocess.Popen(["taskset", "-c", str(args.core), *cmd], env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    if proc.stdout.readline().strip() != "ready":
+        raise SystemExit(f"the build in {tree} failed to start")
+    return proc
+
+
+def rate(proc: subprocess.Popen) -> float:
+    proc.stdin.write("go\n")
+    proc.stdin.flush()
+    return float(proc.stdout.readline())
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("old", nargs="?", help="source tree A")
+    ap.add_argument("new", nargs="?", help="source tree B")
+    ap.add_argument("--n", type=int, default=10976)
+    ap.add_argument("--eta", type=float, default=0.5)
+    ap.add_argument("--neighbours", default="list")
+    ap.add_argument("--rounds", type=int, default=16)
+    ap.add_argument("--chunk", type=float, default=30.0, help="events per particle per turn")
+    ap.add_argument("--core", type=int, default=0)
+    ap.add_argument("--out", default=None)
+    ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    if args.worker:
+        return worker(args.n, args.eta, args.neighbours, args.chunk)
+    a, b = start(args.old, args), start(args.new, args)
+    ra, rb = [], []
+    for r in range(args.rounds):
+        for proc, out in ((a, ra), (b, rb)) if r % 2 == 0 else ((b, rb), (a, ra)):
+            out.append(rate(proc))
+    for proc in (a, b):
+        proc.stdin.close()
+        proc.wait()
+    ratios = [y / x for x, y in zip(ra, rb)]
+    summary = {
+        "A": {"tree": args.old, "best": max(ra) / 1e6, "median": statistics.median(ra) / 1e6},
+        "B": {"tree": args.new, "best": max(rb) / 1e6, "median": statistics.median(rb) / 1e6},
+        "ratio_B_over_A": {"median": statistics.median(ratios), "min": min(ratios), "max": max(ratios)},
+    }
+    print(f"A: best {summary['A']['best']:.4f} median {summary['A']['median']:.4f} M collisions/s")
+    print(f"B: best {summary['B']['best']:.4f} median {summary['B']['median']:.4f} M collisions/s")
+    print(f"B/A per round: median {statistics.median(ratios):.4f} (min {min(ratios):.4f}, max {max(ratios):.4f}, {args.rounds} rounds)")
+    out = args.out or f"benchmarks/results/paired_{args.n}_{args.eta}_{args.neighbours}.json"
+    write_results(out, args, [summary])
+
+
+if __name__ == "__main__":
+    main()
