@@ -12,7 +12,7 @@ from edmd._core.jit import in_disk_cache
 from edmd._core.loop import loop_variant
 
 PLAIN = (False, False, False, L.NORMAL_CONST)
-FEATURE_CODE = {"_debug_check", "_emd_contact", "_finish_contact", "collide_wall", "execute_b", "is_pending"}
+FEATURE_CODE = {"_debug_check", "emd_contact", "finish_contact", "collide_wall", "execute_b", "is_pending"}
 
 
 def referenced_globals(func) -> set[str]:
@@ -29,7 +29,7 @@ def referenced_globals(func) -> set[str]:
 
 def test_plain_hard_spheres_compile_no_feature_code():
     names = referenced_globals(loop_variant(*PLAIN).run_events.py_func)
-    assert {"collide_pair", "predict_pair", "predict_aux", "queue_top", "rebuild_list", "_cross_cell"} <= names
+    assert {"collide_pair", "predict_pair", "predict_aux", "queue_top", "rebuild_list", "cross_cell"} <= names
     assert not names & FEATURE_CODE
 
 
@@ -38,8 +38,8 @@ def test_plain_hard_spheres_compile_no_feature_code():
     [
         ((True, False, False, L.NORMAL_CONST), {"collide_wall"}),
         ((False, False, False, L.NORMAL_CONST, True), {"_debug_check"}),
-        ((False, True, False, L.NORMAL_SOFT), {"_emd_contact", "execute_b"}),
-        ((True, True, False, L.NORMAL_SOFT), {"collide_wall", "_emd_contact", "_finish_contact", "execute_b", "is_pending"}),
+        ((False, True, False, L.NORMAL_SOFT), {"emd_contact", "execute_b"}),
+        ((True, True, False, L.NORMAL_SOFT), {"collide_wall", "emd_contact", "finish_contact", "execute_b", "is_pending"}),
     ],
 )
 def test_each_feature_brings_its_own_code(features, code):

@@ -19,11 +19,16 @@ Pending contacts live in the bundle ``emd`` (:class:`.bundles.EMDStarData`; shor
 
 import math
 
+import numpy as np
+
 from . import layout as L
-from .cells import cell_of_point, walk_around, walk_next
+from .cells import cell_insert, cell_of_point, cell_remove, walk_around, walk_next
 from .jit import hot, jit
+from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTACT_SOFT, NB_LIST
 from .lookup import matrix_of_restitution
-from .predict import INF, advance, flight, wrap3
+from .nblist import SQRT3, rebuild_list
+from .predict import INF, advance, flight, separation, wrap3
+from .schedule import repredict, wrap_into_box
 from .twobody import lab_frame_update
 
 
@@ -120,3 +125,104 @@ def contact_map(i, j, P, mass, geo, fp, ip, emd):
     vn, vt = lab_frame_update(work[0], work[1], work[2], work[3], mi, mj, sigma, phi, d, eps, out)
     lost = 0.5 * mu * ((1.0 - eps * eps) * vn * vn + (1.0 - 1.0 / (d * d)) * vt * vt)
     return tc, lost, vn, vt
+
+
+@jit
+def rebin(p, t, P, image, grid, lists, geo, mode, fp, cbuf):
+    """Keep neighbour structures valid after ``p`` jumped (eMD* relocation, physics.md §1.4, §4.8).
+
+    Cells: re-bin by position. Lists: rebuild the list if ``p`` left the cube inscribed in its
+    shell. Returns ``False`` if a list ran out of capacity.
+    """
+    wrap_into_box(P, image, p, geo)
+    if mode != NB_LIST:
+        c = cell_of_point(P[p, L.X], P[p, L.Y], P[p, L.Z], geo, grid)
+        if c != grid.cell[p]:
+            cell_remove(grid, p)
+            cell_insert(grid, p, c)
+        return True
+    centre = lists.centre
+    h = 0.5 * fp[L.FP_SKIN] / SQRT3
+    dx, dy, dz = wrap3(P[p, L.X] - centre[p, 0], P[p, L.Y] - centre[p, 1], P[p, L.Z] - centre[p, 2], geo)
+    if max(abs(dx), abs(dy), abs(dz)) <= h:
+        return True
+    return rebuild_list(p, P, grid, lists, geo, fp[L.FP_SKIN], cbuf)
+
+
+@jit
+def finish_contact(p, i, j, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd, bath_t):
+    """Exception b) (physics.md §4.8): ``p``, still in a soft contact, meets a third body at ``t``.
+
+    Its pending B event is executed now and, with post-collisional communication, that of its
+    former partner too (re-predicted here unless it is ``i`` or ``j``, which the caller handles).
+    """
+    pj = emd.partner
+    other = pj[p]
+    execute_b(p, t, P, count, emd, geo)
+    if ip[L.IP_EMD_COMM] and other != i and other != j and pj[other] == p:
+        execute_b(other, t, P, count, emd, geo)
+        repredict(np.int64(other), t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd.pending_until, bath_t)
+
+
+@jit
+def emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt, cbuf, emd, bath_t):
+    """A pair ``(i, j)`` (streamed to ``t``) reaches contact under eMD* (physics.md §4.8).
+
+    Exception b) first: pending B events of either partner are executed now (and, with
+    post-collisional communication, those of their former partners); if the pair no longer
+    approaches, the contact is discarded (``CONTACT_DISCARDED``). Then the A event: matrix of restitution,
+    relocation unless it would overlap a third particle or a wall (exception a), pending
+    increments and B events at ``t + t_c`` (``CONTACT_SOFT``). Exception a), overlapping pairs
+    and failed solves fall back to the instantaneous rule with the contact law's central
+    :math:`e_n(v_n)` (``CONTACT_INSTANT``). ``CONTACT_LIST_FULL`` if a neighbour list ran out of
+    capacity.
+    """
+    P, mass, omega, inertia, image, count, tlast = part
+    pdv, ptb, pj = emd.pending_dv, emd.pending_until, emd.partner
+    exception_b = is_pending(emd, i) or is_pending(emd, j)
+    if exception_b:
+        cnt[L.C_EMD_EXC_B] += 1
+        for p in (np.int64(i), np.int64(j)):
+            if is_pending(emd, p):
+                finish_contact(p, i, j, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd, bath_t)
+    dx, dy, dz, gx, gy, gz = separation(P, i, j, t, geo)
+    if exception_b and dx * gx + dy * gy + dz * gz >= 0.0:
+        return CONTACT_DISCARDED
+    sigma = P[i, L.R] + P[j, L.R]
+    if dx * dx + dy * dy + dz * dz < (sigma * (1.0 - 1e-9)) ** 2:
+        return CONTACT_INSTANT  # overlapping and approaching: no contact geometry to start from
+    tc, lost, vn, vt = contact_map(i, j, P, mass, geo, fp, ip, emd)
+    if not tc == tc:
+        return CONTACT_INSTANT
+    work = emd.work
+    walls = ip[L.IP_WALLS]
+    if relocation_blocked(i, work[4, 0], work[4, 1], work[4, 2], i, j, t, P, grid, geo, walls, cbuf) or relocation_blocked(
+        j, work[5, 0], work[5, 1], work[5, 2], i, j, t, P, grid, geo, walls, cbuf
+    ):
+        cnt[L.C_EMD_EXC_A] += 1
+        return CONTACT_INSTANT
+    jn = 0.0  # virial r_ij . J with the impulse J on i over the whole contact
+    for k in range(3):
+        jk = mass[i] * (work[6, k] + work[7, k] - P[i, L.VX + k])
+        jn += (work[0, k] - work[1, k]) * jk
+        P[i, L.X + k] = work[4, k]
+        P[j, L.X + k] += work[5, k] - work[1, k]  # (in j's own periodic frame)
+        P[i, L.VX + k] = work[6, k]
+        P[j, L.VX + k] = work[6, k]
+        pdv[i, k] = work[7, k]
+        pdv[j, k] = work[8, k]
+    ptb[i] = t + tc
+    ptb[j] = t + tc
+    pj[i] = j
+    pj[j] = i
+    acc[L.A_VIRIAL] += jn
+    acc[L.A_KE] -= lost
+    acc[L.A_DISSIPATED] += lost
+    cnt[L.C_EMD_A] += 1
+    acc[L.A_EMD_VN] = vn
+    acc[L.A_EMD_VT] = vt
+    if not rebin(i, t, P, image, grid, lists, geo, mode, fp, cbuf):
+        return CONTACT_LIST_FULL
+    if not rebin(j, t, P, image, grid, lists, geo, mode, fp, cbuf):
+        return CONTACT_LIST_FULL
+    return CONTACT_SOFT

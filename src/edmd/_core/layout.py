@@ -20,7 +20,7 @@ AUX_BATH = 65  # Andersen heat bath: the particle's velocity is drawn anew (see 
 # Dispatch is explicit: every kind the loop knows is tested for, and any other code stops the
 # run with ST_BAD_EVENT (a new kind must be given its own branch, it can never fall into another's).
 
-# outcomes of a pair reaching contact under eMD* (loop._emd_contact)
+# outcomes of a pair reaching contact under eMD* (emdstar.emd_contact)
 CONTACT_LIST_FULL = -1  # a neighbour list ran out of capacity while re-binning the pair
 CONTACT_DISCARDED = 0  # exception b) left the pair separating: nothing happens
 CONTACT_SOFT = 1  # an A event: the pair was relocated, its B events are pending

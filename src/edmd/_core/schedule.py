@@ -1,0 +1,198 @@
+"""Event prediction and scheduling (physics.md §1.2-§1.5): each particle's two candidate events.
+
+* a **pair event** ``(pair_t, pair_j, pair_c)``: earliest predicted contact, the partner and
+  the partner's event counter at prediction time. It is valid iff ``count[pair_j] == pair_c``.
+  A stale one is kept as a placeholder: no other pair of that particle can be earlier, so when
+  it comes up the particle is simply re-predicted.
+* an **aux event** ``(aux_t, aux_k)``: a single-particle event (shell exit or cell crossing;
+  walls, eMD* B events and bath events use the same slot) that depends only on the particle's
+  own flight.
+
+The calendar key of the particle is ``min(pair_t, aux_t)`` (aux first at equal times). The
+``@hot`` predictors are inlined by the loop on its frequent paths; :func:`repredict` is their
+called form for rare whole-particle re-predictions (global events, eMD* exception b).
+"""
+
+import numpy as np
+
+from . import layout as L
+from .cells import cell_insert, cell_remove, crossing_time, walk_cells, walk_next
+from .jit import hot, jit
+from .layout import NB_LIST
+from .nblist import shell_exit_time
+from .predict import INF, contact_time, flight, gap_time, relative_to
+from .queue import queue_update
+
+
+@hot
+def _set_pair(ev, count, i, t, j):
+    ev.pair_t[i] = t
+    ev.pair_j[i] = j
+    ev.pair_c[i] = count[j]
+
+
+@hot
+def _closer(xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, best, bj):
+    """The earlier of the current best ``(dt, partner)`` and a contact with ``j``."""
+    dx, dy, dz, gx, gy, gz = relative_to(xi, yi, zi, vxi, vyi, vzi, P, j, t, geo)
+    dt = contact_time(dx, dy, dz, gx, gy, gz, ri + P[j, L.R])
+    if dt < best:
+        return dt, j
+    return best, bj
+
+
+@jit
+def scan_cells(i, t, P, count, ev, grid, geo, cbuf, axis, step):
+    """Improve the pair event of ``i`` with the particles of a block of cells (see ``cell_block``)."""
+    xi, yi, zi, vxi, vyi, vzi = flight(P, i, t, geo)
+    ri = P[i, L.R]
+    best = ev.pair_t[i] - t
+    bj = -1
+    nc, s, j = walk_cells(grid, grid.cell[i], geo, cbuf, axis, step)
+    while j >= 0:
+        if j != i:
+            best, bj = _closer(xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, best, bj)
+        nc, s, j = walk_next(grid, cbuf, nc, s, j)
+    if bj >= 0:
+        _set_pair(ev, count, i, t + best, bj)
+
+
+@hot
+def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf):
+    """Full re-prediction of the earliest contact of ``i`` (neighbour list or 3^d cells)."""
+    if mode == NB_LIST:
+        nbl, nbl_n = lists.members, lists.size
+        xi, yi, zi, vxi, vyi, vzi = flight(P, i, t, geo)
+        ri = P[i, L.R]
+        best = INF
+        bj = -1
+        for s in range(nbl_n[i]):
+            best, bj = _closer(xi, yi, zi, vxi, vyi, vzi, ri, P, nbl[i, s], t, geo, best, bj)
+        if bj >= 0:
+            _set_pair(ev, count, i, t + best, bj)
+            return
+    ev.pair_t[i] = INF
+    ev.pair_j[i] = -1
+    if mode != NB_LIST:
+        scan_cells(i, t, P, count, ev, grid, geo, cbuf, np.int64(-1), np.int64(0))
+
+
+@jit
+def _crossing_event(i, t, P, ev, grid, geo):
+    """Earliest cell-face crossing of ``i`` (physics.md §1.4)."""
+    gi, gf = grid.shape, grid.size
+    c = grid.cell[i]
+    ncy, ncz = gi[1], gi[2]
+    coords = (c // (ncy * ncz), (c // ncz) % ncy, c % ncz)
+    xs = flight(P, i, t, geo)
+    best = INF
+    kind = L.AUX_NONE
+    for k in range(3):
+        tk, face = crossing_time(xs[k], xs[3 + k], geo[L.G_GX + k], coords[k], gi[k], geo[k], gf[k], geo[3 + k] < INF)
+        if tk < best:
+            best = tk
+            kind = L.AUX_CELL + 2 * k + face
+    ev.aux_t[i] = t + best
+    ev.aux_k[i] = kind
+
+
+@hot
+def _wall_event(i, t, P, geo, walls, best, kind):
+    """Improve ``(best, kind)`` with the earliest wall contact of ``i`` (physics.md §1.3)."""
+    xs = flight(P, i, t, geo)
+    r = P[i, L.R]
+    for k in range(3):
+        if walls & (1 << k):
+            x, v, g, half = xs[k], xs[3 + k], geo[L.G_GX + k], 0.5 * geo[k]
+            tk = gap_time(x + half - r, v, g)
+            if tk < best:
+                best, kind = tk, L.AUX_WALL + 2 * k
+            tk = gap_time(half - x - r, -v, -g)
+            if tk < best:
+                best, kind = tk, L.AUX_WALL + 2 * k + 1
+    return best, kind
+
+
+@hot
+def predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t):
+    """Earliest single-particle event of ``i``: shell exit (lists) or cell crossing (cells), a wall
+    (when ``walls``; ``wall_axes`` has bit ``k`` set for axis ``k``), its eMD* B event (``ptb``,
+    when ``emd_on``) or its Andersen bath event (``bath_t``, when ``bath_on``)."""
+    if mode == NB_LIST:
+        ev.aux_t[i] = shell_exit_time(P, i, t, lists, geo, skin)
+        ev.aux_k[i] = L.AUX_SHELL
+    else:
+        _crossing_event(i, t, P, ev, grid, geo)
+    if walls:
+        best, kind = _wall_event(i, t, P, geo, wall_axes, ev.aux_t[i] - t, ev.aux_k[i])
+        ev.aux_t[i] = t + best
+        ev.aux_k[i] = kind
+    if emd_on and ptb[i] < ev.aux_t[i]:  # (hard spheres never touch ptb: no cache miss)
+        ev.aux_t[i] = ptb[i]
+        ev.aux_k[i] = L.AUX_B
+    if bath_on and bath_t[i] < ev.aux_t[i]:
+        ev.aux_t[i] = bath_t[i]
+        ev.aux_k[i] = L.AUX_BATH
+
+
+@hot
+def requeue(q, ev, i):
+    a = ev.aux_t[i]
+    p = ev.pair_t[i]
+    queue_update(q, i, a if a <= p else p)
+
+
+
+
+@jit
+def repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb, bath_t):
+    """Both candidate events of ``i`` after its flight changed, and its calendar key.
+
+    Compiled once and called (eMD* exception b); the loop inlines the same steps.
+    """
+    predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
+    predict_aux(i, t, P, ev, grid, lists, geo, mode, ip[L.IP_WALLS] != 0, ip[L.IP_WALLS], ip[L.IP_EMD] != 0, fp[L.FP_SKIN], ptb, ip[L.IP_BATH] != 0, bath_t)
+    requeue(q, ev, i)
+
+
+@jit
+def cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf):
+    """Move ``i`` into the neighbouring cell (by direction, never by flooring) and scan the new layer."""
+    gi = grid.shape
+    k = (kind - L.AUX_CELL) >> 1
+    step = 1 if (kind - L.AUX_CELL) & 1 else -1
+    c = grid.cell[i]
+    ny, nz = gi[1], gi[2]
+    cx, cy, cz = c // (ny * nz), (c // nz) % ny, c % nz
+    ck = (cx, cy, cz)[k] + step
+    if ck == gi[k]:
+        ck = 0
+        P[i, L.X + k] -= geo[k]
+        image[i, k] += 1
+    elif ck < 0:
+        ck = gi[k] - 1
+        P[i, L.X + k] += geo[k]
+        image[i, k] -= 1
+    if k == 0:
+        cx = ck
+    elif k == 1:
+        cy = ck
+    else:
+        cz = ck
+    cell_remove(grid, i)
+    cell_insert(grid, i, (cx * ny + cy) * nz + cz)
+    scan_cells(i, t, P, count, ev, grid, geo, cbuf, k, step)
+
+
+@hot
+def wrap_into_box(P, image, i, geo):
+    for k in range(3):
+        half = geo[3 + k]
+        if half < INF:
+            x = P[i, L.X + k]
+            if x >= half:
+                P[i, L.X + k] = x - geo[k]
+                image[i, k] += 1
+            elif x < -half:
+                P[i, L.X + k] = x + geo[k]
+                image[i, k] -= 1
