@@ -29,13 +29,13 @@ JOBS = {
     "edmd.Simulation(s).run(max_events=1000)\n",
     # the README's first command: the showcase job, from `edmd run` to its end (figures included)
     "showcase": "import sys, tempfile\n"
-    "from edmd.cli import app\n"
+    "from edmd.app.cli import app\n"
     "sys.argv = ['edmd', 'run', '--out', tempfile.mkdtemp() + '/run', '--no-progress']\n"
     "app(standalone_mode=False)\n",
     # eMD* soft spheres (the contact solver and tables in the loop) to their first contacts
     "emdstar": "import edmd\n"
-    "from edmd.contact import Hertz\n"
-    "from edmd.emdstar import EMDStar\n"
+    "from edmd.physics.contact import Hertz\n"
+    "from edmd.physics.emdstar import EMDStar\n"
     "s = edmd.maxwell_boltzmann(edmd.random_packing(500, 0.05, seed=1), 1.0, seed=2)\n"
     "edmd.Simulation(s, collision=EMDStar(Hertz(young=1e5, poisson=0.3, A=1e-3))).run(max_events=1000)\n",
 }

@@ -5,7 +5,7 @@ nu = 0.3, A = 1e-6 s: e_n ~ 0.94 and t_c ~ 3e-5 s at the thermal speed sqrt(<v^2
 at packing fractions 0.01, 0.05 and 0.1 is advanced over the same physical time (about two
 collisions per particle) by
 
-* **eMD*** (:class:`edmd.emdstar.EMDStar`, default tables), and
+* **eMD*** (:class:`edmd.physics.emdstar.EMDStar`, default tables), and
 * **DEM** (:class:`edmd.DEMSimulation`) at 50 steps per shortest contact (common practice, the
   trajectories then deviate from Newton's by ~1e-4 sigma per contact) and at 400 steps per
   contact (~1e-6 sigma, eMD*'s accuracy with tables, see ``tests/test_emdstar.py``).
@@ -29,7 +29,7 @@ import time
 from bench_hard_spheres import write_results
 
 import edmd
-from edmd.emdstar import EMDStar
+from edmd.physics.emdstar import EMDStar
 
 RADIUS, DENSITY = 1e-3, 2500.0
 CONTACT = edmd.Hertz(young=1e8, poisson=0.3, A=1e-6)

@@ -36,7 +36,7 @@ import numpy as np
 from bench_hard_spheres import write_results
 
 import edmd
-from edmd.contact import Hertz
+from edmd.physics.contact import Hertz
 
 PAIR = "pair_style granular\npair_coeff * * hertz/material {young!r} {eta0!r} {poisson!r} tangential linear_nohistory 0.0 0.0 damping viscoelastic limit_damping\n"
 

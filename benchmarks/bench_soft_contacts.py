@@ -6,7 +6,7 @@
 * **Table lookup**: the compiled interpolation at random points of the box, from table
   coordinates (:func:`edmd._core.lookup.lookup`) and from physical impact data including the
   table coordinates (:func:`edmd._core.lookup.matrix_of_restitution`): nanoseconds per lookup.
-* **Table accuracy**: :func:`edmd.tables.check_table` on 1e4 points, log and linear softness.
+* **Table accuracy**: :func:`edmd.physics.tables.check_table` on 1e4 points, log and linear softness.
 * **DEM**: :class:`edmd.DEMSimulation`, 3D dilute gases (fcc start, kT = 1, sigma = m = 1),
   dashpot (k = 1e4, e_n = 0.9) and Hertz (Y = 1e5, nu = 0.3, A = 1e-4), 50 steps per contact:
   particle-steps per second after 200 warm-up steps.
@@ -34,8 +34,8 @@ from numba import njit
 
 import edmd
 from edmd._core import lookup as lk
-from edmd.contact import Hertz, LinearDashpot
-from edmd.tables import check_table, default_table
+from edmd.physics.contact import Hertz, LinearDashpot
+from edmd.physics.tables import check_table, default_table
 
 CONTACTS = {"dashpot": LinearDashpot.from_restitution(0.9, k=1e4, mass=1.0), "hertz": Hertz(young=1e5, poisson=0.3, A=1e-4)}
 

@@ -5,7 +5,7 @@ packing fraction 0.35 start homogeneous with Maxwellian velocities. The homogene
 state of a large enough system is unstable (the clustering instability of Goldhirsch & Zanetti,
 PRL 70, 1619 (1993)): after some tens of collisions per particle dense clusters and dilute
 voids form and grow. The last frame is drawn coloured by the local packing fraction
-(:func:`edmd.movie.plot_frame`). About 5 s of simulation (~150 collisions per particle)::
+(:func:`edmd.app.movie.plot_frame`). About 5 s of simulation (~150 collisions per particle)::
 
     python examples/clustering_2d.py [RUN_DIR]      # trajectory.gsd, thermo.csv in RUN_DIR (default clustering-run)
     edmd movie clustering-run --color density       # the whole run as clustering-run/movie.gif
@@ -17,8 +17,8 @@ from pathlib import Path
 
 import edmd
 from edmd import collide
-from edmd.movie import plot_frame
-from edmd.plots import save
+from edmd.app.movie import plot_frame
+from edmd.app.plots import save
 
 HERE = Path(__file__).parent
 FIGURE = HERE.parent / "docs" / "figures" / "showcase-clustering.png"

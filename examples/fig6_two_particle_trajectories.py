@@ -7,7 +7,7 @@ the same state:
 * **MD** (:class:`edmd.DEMSimulation`, 4000 steps per contact): the reference, Newton's equations;
 * **classic EDMD** with the same force law's central :math:`e_n(v_n)`: an instantaneous
   collision at first contact, the outgoing directions are wrong for oblique impacts;
-* **eMD*** (:class:`edmd.emdstar.EMDStar`): event A relocates the pair and both move with the
+* **eMD*** (:class:`edmd.physics.emdstar.EMDStar`): event A relocates the pair and both move with the
   centre-of-mass velocity during the contact, event B gives the post-collisional velocities:
   after the contact the paths coincide with MD.
 
@@ -25,7 +25,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 import edmd  # noqa: E402
-from edmd.emdstar import EMDStar  # noqa: E402
+from edmd.physics.emdstar import EMDStar  # noqa: E402
 
 HERE = Path(__file__).parent
 CONTACT = edmd.Hertz(young=600.0, poisson=0.3, A=2e-2)

@@ -35,7 +35,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from edmd.thermo import read_thermo  # noqa: E402
+from edmd.files.thermo import read_thermo  # noqa: E402
 
 HERE = Path(__file__).parent
 DISCARD = 10.0

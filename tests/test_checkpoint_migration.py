@@ -14,8 +14,8 @@ import pytest
 
 from edmd import Simulation, lattice, maxwell_boltzmann
 from edmd._core import layout as L
-from edmd.checkpoint import Checkpoint, CheckpointError, load_checkpoint, read_checkpoint
-from edmd.trajectory import read_state
+from edmd.files.checkpoint import Checkpoint, CheckpointError, load_checkpoint, read_checkpoint
+from edmd.files.trajectory import read_state
 
 DATA = Path(__file__).parent / "data"
 

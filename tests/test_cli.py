@@ -6,8 +6,8 @@ import numpy as np
 from typer.testing import CliRunner
 
 from edmd import Simulation, Trajectory, lattice, maxwell_boltzmann, read_state, read_thermo
-from edmd.cli import app
-from edmd.config import default_job
+from edmd.app.cli import app
+from edmd.app.config import default_job
 
 runner = CliRunner()
 
@@ -107,7 +107,7 @@ def _edmd(*args, cwd=None):
     import subprocess
     import sys
 
-    cmd = [sys.executable, "-c", "from edmd.cli import app; app()", *map(str, args)]
+    cmd = [sys.executable, "-c", "from edmd.app.cli import app; app()", *map(str, args)]
     return subprocess.run(cmd, capture_output=True, text=True, cwd=cwd, timeout=600)
 
 
@@ -142,9 +142,9 @@ def test_run_help_shows_section_names():
 
 
 def test_cli_announces_a_large_trajectory(tmp_path, monkeypatch):
-    import edmd.runner
+    import edmd.app.runner
 
-    monkeypatch.setattr(edmd.runner, "TRAJECTORY_WARN_BYTES", 1)
+    monkeypatch.setattr(edmd.app.runner, "TRAJECTORY_WARN_BYTES", 1)
     cfg = tmp_path / "c.toml"
     cfg.write_text(SMALL.format(dim=2))
     r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "run")])
@@ -168,9 +168,9 @@ def test_compile_names_a_bad_feature():
 
 
 def test_run_says_when_it_compiles_its_loop(tmp_path, monkeypatch):
-    import edmd.engine
+    import edmd.run.engine
 
-    monkeypatch.setattr(edmd.engine, "in_disk_cache", lambda dispatcher: False)  # as on a fresh install
+    monkeypatch.setattr(edmd.run.engine, "in_disk_cache", lambda dispatcher: False)  # as on a fresh install
     monkeypatch.setattr(edmd._core.loop, "_VARIANTS", {})  # and in a fresh process
     cfg = tmp_path / "c.toml"
     cfg.write_text(SMALL.format(dim=2))

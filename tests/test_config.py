@@ -3,8 +3,8 @@
 import pytest
 
 import edmd
-from edmd.config import EXAMPLE, Config, ConfigError, dump_config, load_config, parse_config
-from edmd.runner import build_state
+from edmd.app.config import EXAMPLE, Config, ConfigError, dump_config, load_config, parse_config
+from edmd.app.runner import build_state
 
 ISSUE_EXAMPLE = """
 [system]
@@ -92,8 +92,8 @@ def test_polydisperse_config(dim):
 
 
 def test_emdstar_rule_from_config(tmp_path):
-    from edmd.emdstar import EMDStar
-    from edmd.runner import build_simulation
+    from edmd.physics.emdstar import EMDStar
+    from edmd.app.runner import build_simulation
 
     cfg = parse_config(
         {
@@ -174,7 +174,7 @@ def test_a_sweep_file_points_to_edmd_sweep():
 
 
 def test_until_time_inf_runs_a_number_of_events(tmp_path):
-    from edmd.runner import run_directory
+    from edmd.app.runner import run_directory
 
     cfg = parse_config({"system": {"dim": 2, "n": 64, "packing_fraction": 0.3}, "run": {"until_time": float("inf"), "max_events": 5000, "progress": False}, "output": {"plots": False}})
     summary = run_directory(cfg, tmp_path / "run")
@@ -183,7 +183,7 @@ def test_until_time_inf_runs_a_number_of_events(tmp_path):
 
 
 def test_engine_debug_reaches_the_engine():
-    from edmd.runner import build_simulation
+    from edmd.app.runner import build_simulation
 
     cfg = parse_config({"system": {"dim": 2, "n": 64, "packing_fraction": 0.3}, "engine": {"debug": True}})
     assert build_simulation(cfg).engine.options.debug is True

@@ -7,8 +7,8 @@ import warnings
 import numpy as np
 import pytest
 
-import edmd.contact
-from edmd.contact import ContactError, ContactWarning, Hertz, LinearDashpot, pair_constants
+import edmd.physics.contact
+from edmd.physics.contact import ContactError, ContactWarning, Hertz, LinearDashpot, pair_constants
 
 
 @pytest.mark.parametrize(
@@ -123,4 +123,4 @@ def test_forces():
 
 
 def test_examples_in_docstrings():
-    assert doctest.testmod(edmd.contact, raise_on_error=False).failed == 0
+    assert doctest.testmod(edmd.physics.contact, raise_on_error=False).failed == 0

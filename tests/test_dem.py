@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 import edmd
-import edmd.dem
-from edmd.contact import Hertz, LinearDashpot
-from edmd.dem import DEMSimulation
-from edmd.engine import EngineError
+import edmd.run.dem
+from edmd.physics.contact import Hertz, LinearDashpot
+from edmd.run.dem import DEMSimulation
+from edmd.run.engine import EngineError
 from edmd.state import StateError
-from edmd.twobody import collide, lab_frame_update
+from edmd.physics.twobody import collide, lab_frame_update
 
 M, R = (1.0, 2.5), (0.5, 0.8)
 SIGMA = R[0] + R[1]
@@ -210,7 +210,7 @@ def test_pressure_of_a_stiff_elastic_gas_is_carnahan_starling():
     after = sim.totals()
     s = sim.state
     ke_mean = (after.kinetic_integral - before.kinetic_integral) / 20.0
-    p = edmd.thermo.pressure(s, after.kinetic_integral - before.kinetic_integral, after.virial - before.virial, 20.0)
+    p = edmd.files.thermo.pressure(s, after.kinetic_integral - before.kinetic_integral, after.virial - before.virial, 20.0)
     z = p / (2 * ke_mean / (3 * s.volume))  # P / (n T) with T = 2 <E_kin> / (3 N)
     eta = 0.1
     z_cs = (1 + eta + eta**2 - eta**3) / (1 - eta) ** 3
@@ -247,7 +247,7 @@ def test_bad_input():
         DEMSimulation(still, Hertz(young=1e6, poisson=0.3))
     with pytest.raises(EngineError, match="time step .* too large"):
         DEMSimulation(state, LinearDashpot(k=1e4), dt=0.5).run(until_time=5.0)
-    from edmd.checkpoint import Checkpoint
+    from edmd.files.checkpoint import Checkpoint
 
     with pytest.raises(TypeError, match="checkpoints .* not available for the DEM"):
         DEMSimulation(state, LinearDashpot(k=1e4)).add(Checkpoint("c.gsd", interval=1.0))
@@ -273,7 +273,7 @@ e_n = 0.8
 
 
 def test_config_sections():
-    from edmd.config import ConfigError, dump_config, parse_config
+    from edmd.app.config import ConfigError, dump_config, parse_config
 
     cfg = parse_config({"integrator": {"kind": "dem"}, "contact": {"model": "hertz", "young": 1e7, "poisson": 0.3, "A": 1e-5}})
     assert cfg.contact.build(1.0) == Hertz(1e7, 0.3, 1e-5)
@@ -306,7 +306,7 @@ def test_cli_runs_dem(tmp_path, dim):
 
     from typer.testing import CliRunner
 
-    from edmd.cli import app
+    from edmd.app.cli import app
 
     cfg = tmp_path / "dem.toml"
     cfg.write_text(DEM_CONFIG.format(dim=dim))
@@ -323,4 +323,4 @@ def test_cli_runs_dem(tmp_path, dim):
 
 
 def test_examples_in_docstrings():
-    assert doctest.testmod(edmd.dem, raise_on_error=False).failed == 0
+    assert doctest.testmod(edmd.run.dem, raise_on_error=False).failed == 0

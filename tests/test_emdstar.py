@@ -8,10 +8,10 @@ import pytest
 from reference import direct_two_spheres, random_contact
 
 import edmd
-import edmd.emdstar
+import edmd.physics.emdstar
 from edmd import Hertz, LinearDashpot, Simulation, State
-from edmd.collide import Inelastic, RuleError, TC, Wall
-from edmd.emdstar import EMDStar, EMDStarError
+from edmd.physics.collide import Inelastic, RuleError, TC, Wall
+from edmd.physics.emdstar import EMDStar, EMDStarError
 
 CONTACTS = [
     (LinearDashpot(k=1e4, gamma=20.0), 1.0),
@@ -253,7 +253,7 @@ def test_state_round_trips_pending_contacts(tmp_path, rng):
 
 
 def test_examples_in_docstrings():
-    assert doctest.testmod(edmd.emdstar).failed == 0
+    assert doctest.testmod(edmd.physics.emdstar).failed == 0
 
 
 def test_resync_keeps_pending_contacts_exact(rng):

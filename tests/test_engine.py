@@ -5,7 +5,7 @@ import pytest
 
 import edmd
 from edmd._core import layout as L
-from edmd.engine import EngineOptions
+from edmd.run.engine import EngineOptions
 from reference import run_reference
 
 MODES = ["list", "cells"]

@@ -4,8 +4,8 @@ from pathlib import Path
 
 import pytest
 
-from edmd.config import load_config
-from edmd.runner import run_directory
+from edmd.app.config import load_config
+from edmd.app.runner import run_directory
 
 EXAMPLES = sorted(Path(__file__).resolve().parents[1].joinpath("examples").glob("*.toml"))
 RUNNABLE = [p for p in EXAMPLES if "sweep" not in p.read_text()[:2000] and "[grid]" not in p.read_text() and "[base" not in p.read_text()]

@@ -5,7 +5,7 @@ import pytest
 
 import edmd
 from edmd import StateError, Trajectory
-from edmd.export import csv_columns, export_frame, write_csv, write_xyz
+from edmd.files.export import csv_columns, export_frame, write_csv, write_xyz
 
 from test_trajectory import _state
 

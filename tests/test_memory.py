@@ -5,7 +5,7 @@ import pytest
 
 import edmd
 from edmd._core.cells import grid_shape as one_diameter_grid
-from edmd.memory import MemoryLimitError, check_memory, estimate_bytes, grid_shape, max_cells, parse_bytes
+from edmd.run.memory import MemoryLimitError, check_memory, estimate_bytes, grid_shape, max_cells, parse_bytes
 
 
 def test_guard_names_the_cause_and_the_remedy():

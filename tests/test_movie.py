@@ -6,10 +6,10 @@ from PIL import Image
 from typer.testing import CliRunner
 
 import edmd
-import edmd.movie as movie
-from edmd.cli import app
-from edmd.movie import MovieError, colour_values, local_packing_fraction, make_movie, plot_frame
-from edmd.trajectory import iter_states
+import edmd.app.movie as movie
+from edmd.app.cli import app
+from edmd.app.movie import MovieError, colour_values, local_packing_fraction, make_movie, plot_frame
+from edmd.files.trajectory import iter_states
 
 runner = CliRunner()
 

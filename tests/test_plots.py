@@ -10,14 +10,14 @@ from matplotlib.image import imread
 from typer.testing import CliRunner
 
 import edmd
-import edmd.plots as plots
+import edmd.app.plots as plots
 from edmd.analysis import MSD, RDF, HaffLaw, VelocityDistribution, compressibility_factor
-from edmd.cli import app
-from edmd.config import load_config, parse_config
-from edmd.plots import plot_energy, plot_run, plot_snapshot, plot_temperature, run_figures, save
-from edmd.runner import run_directory
-from edmd.thermo import read_thermo
-from edmd.trajectory import iter_states, read_state, write_state
+from edmd.app.cli import app
+from edmd.app.config import load_config, parse_config
+from edmd.app.plots import plot_energy, plot_run, plot_snapshot, plot_temperature, run_figures, save
+from edmd.app.runner import run_directory
+from edmd.files.thermo import read_thermo
+from edmd.files.trajectory import iter_states, read_state, write_state
 
 EXAMPLES = __import__("pathlib").Path(__file__).resolve().parents[1] / "examples"
 

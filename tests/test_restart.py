@@ -12,11 +12,11 @@ import pytest
 from typer.testing import CliRunner
 
 import edmd
-import edmd.runner
+import edmd.app.runner
 from edmd import Thermo, Trajectory
-from edmd._io import atomic_path
-from edmd.checkpoint import Checkpoint, CheckpointError, load_checkpoint, read_checkpoint, save_checkpoint, save_final_state
-from edmd.cli import app
+from edmd.files.atomic import atomic_path
+from edmd.files.checkpoint import Checkpoint, CheckpointError, load_checkpoint, read_checkpoint, save_checkpoint, save_final_state
+from edmd.app.cli import app
 
 FIELDS = ("position", "velocity", "radius", "mass", "box", "angular_velocity", "inertia", "image", "periodic")
 
@@ -120,7 +120,7 @@ def test_granular_run_with_tc_walls_and_gravity_restarts_bit_for_bit(tmp_path, d
 
 def test_emdstar_run_with_pending_contacts_restarts_bit_for_bit(tmp_path, dim):
     """eMD* with walls and gravity: pending contacts (increments, B times, partners) survive a checkpoint."""
-    from edmd.emdstar import EMDStar
+    from edmd.physics.emdstar import EMDStar
 
     periodic = [True] * (dim - 1) + [False]
     s = edmd.maxwell_boltzmann(edmd.random_packing(300, 0.2, dim=dim, periodic=periodic, seed=9), 1.0, seed=10)
@@ -143,7 +143,7 @@ def test_emdstar_run_with_pending_contacts_restarts_bit_for_bit(tmp_path, dim):
 def test_final_state_without_pending_contacts_beside_a_point_with_them(tmp_path):
     """GSD reads a log entry missing from frame 1 from frame 0: the final state must not inherit
     the checkpoint point's pending eMD* contacts."""
-    from edmd.emdstar import EMDStar
+    from edmd.physics.emdstar import EMDStar
 
     s = edmd.maxwell_boltzmann(edmd.random_packing(300, 0.2, dim=2, seed=9), 1.0, seed=10)
     sim = edmd.Simulation(s, collision=EMDStar(edmd.Hertz(young=2e3, poisson=0.3, A=2e-3)))
@@ -289,6 +289,6 @@ def test_cli_interrupt_points_to_restart(tmp_path, monkeypatch):
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(edmd.runner, "run_directory", interrupted)
+    monkeypatch.setattr(edmd.app.runner, "run_directory", interrupted)
     r = CliRunner().invoke(app, ["run", str(_config(tmp_path, 2, 1.0)), "--out", str(tmp_path / "x")])
     assert r.exit_code == 130 and f"edmd run --restart {tmp_path / 'x'}" in " ".join(r.output.split())

@@ -1,4 +1,4 @@
-"""Run directories (edmd.runner): never lose or mix data, always leave the final state behind."""
+"""Run directories (edmd.app.runner): never lose or mix data, always leave the final state behind."""
 
 import json
 import math
@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 
 import edmd
-import edmd.plots
-from edmd.checkpoint import CheckpointError, read_checkpoint
-from edmd.config import ConfigError, parse_config
-from edmd.engine import CollapseError
-from edmd.memory import MemoryLimitError
-from edmd.runner import RunDirectoryError, TrajectorySizeWarning, restart_directory, run_directory
-from edmd.trajectory import frame_count, read_state, trajectory_run_id
+import edmd.app.plots
+from edmd.files.checkpoint import CheckpointError, read_checkpoint
+from edmd.app.config import ConfigError, parse_config
+from edmd.run.engine import CollapseError
+from edmd.run.memory import MemoryLimitError
+from edmd.app.runner import RunDirectoryError, TrajectorySizeWarning, restart_directory, run_directory
+from edmd.files.trajectory import frame_count, read_state, trajectory_run_id
 
 
 def small(dim=2, n=64, until=2.0, interval=0.5, **sections):
@@ -69,7 +69,7 @@ def test_images_of_the_user_are_not_a_run_and_stay(tmp_path):
 @pytest.mark.parametrize("collision", [{}, {"rule": "inelastic", "e_n": 0.9}])
 def test_every_figure_of_a_run_is_a_run_file(tmp_path, collision):
     summary = run_directory(small(until=1.0, collision=collision, output={"plots": True}), tmp_path / "run")
-    assert summary["plots"] and set(summary["plots"]) <= set(edmd.runner.RUN_FIGURES)
+    assert summary["plots"] and set(summary["plots"]) <= set(edmd.app.runner.RUN_FIGURES)
 
 
 def test_a_run_without_thermo_and_trajectory_ends_with_its_summary(tmp_path):
@@ -82,7 +82,7 @@ def test_a_failure_of_the_figures_keeps_the_summary_of_the_run(tmp_path, monkeyp
     def broken(run_dir):
         raise RuntimeError("no figures today")
 
-    monkeypatch.setattr(edmd.plots, "plot_run", broken)
+    monkeypatch.setattr(edmd.app.plots, "plot_run", broken)
     with pytest.raises(RuntimeError, match="no figures today"):
         run_directory(small(until=1.0, output={"plots": True}), tmp_path / "run")
     assert json.loads((tmp_path / "run" / "summary.json").read_text())["time"] == 1.0
@@ -186,7 +186,7 @@ def test_restart_until_a_time_before_the_checkpoint_is_an_error(tmp_path):
     with pytest.raises(ConfigError, match="not after the checkpoint time 1.0"):
         restart_directory(out, until_time=0.5)
     with pytest.raises(ConfigError, match=r"run\.until_time: Input should be greater than 0 \(got -5.0\)") as err:
-        edmd.runner.set_key(small(), "run.until_time", -5.0)
+        edmd.app.runner.set_key(small(), "run.until_time", -5.0)
     assert "errors.pydantic.dev" not in str(err.value)
 
 
@@ -278,7 +278,7 @@ def test_memory_guard_refuses_before_allocating(tmp_path):
 
 
 def test_a_large_trajectory_is_announced(tmp_path, monkeypatch):
-    monkeypatch.setattr(edmd.runner, "TRAJECTORY_WARN_BYTES", 64 * 100 * 4)
+    monkeypatch.setattr(edmd.app.runner, "TRAJECTORY_WARN_BYTES", 64 * 100 * 4)
     with pytest.warns(TrajectorySizeWarning, match=r"about .* GB \(6 frames of 64 particles\)"):
         run_directory(small(until=2.0), tmp_path / "run")
 
@@ -297,5 +297,5 @@ def test_a_checkpoint_whose_config_newer_rules_reject_is_explained(tmp_path):
     with gsd.hoomd.open(path, "w", precision="double") as f:
         for frame in frames:
             f.append(frame)
-    with pytest.raises(edmd.checkpoint.CheckpointError, match=r"(?s)not valid for this edmd .*system\.seed.*--from trajectory\.gsd"):
+    with pytest.raises(edmd.files.checkpoint.CheckpointError, match=r"(?s)not valid for this edmd .*system\.seed.*--from trajectory\.gsd"):
         restart_directory(out, until_time=2.0)

@@ -11,9 +11,9 @@ from typer.testing import CliRunner
 
 import edmd
 from edmd import SweepError, SweepSpec, read_state
-from edmd.cli import app
-from edmd.sweeps import TIMING, replica_seed
-from edmd.sweeps.files import point_dir, read_json
+from edmd.app.cli import app
+from edmd.app.sweeps import TIMING, replica_seed
+from edmd.app.sweeps.files import point_dir, read_json
 
 runner = CliRunner()
 EXAMPLES = Path(__file__).parents[1] / "examples"

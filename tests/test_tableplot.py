@@ -11,11 +11,11 @@ import pytest
 from matplotlib.image import imread
 from typer.testing import CliRunner
 
-from edmd.cli import app
-from edmd.contact import Hertz
-from edmd.tableplot import COMPONENTS, as_table, plot_table
-from edmd.tables import DEFAULT_BOXES, TableError, default_table
-from edmd.twobody import solve
+from edmd.app.cli import app
+from edmd.physics.contact import Hertz
+from edmd.app.tableplot import COMPONENTS, as_table, plot_table
+from edmd.physics.tables import DEFAULT_BOXES, TableError, default_table
+from edmd.physics.twobody import solve
 
 runner = CliRunner()
 NAMES = ("Phi", "eps_hat", "D", "tau_c")  # the panel order of COMPONENTS

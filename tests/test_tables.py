@@ -13,14 +13,14 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-import edmd.tables
+import edmd.physics.tables
 from edmd._core import lookup as lk
 from edmd._core.contact import MODEL_HERTZ
 from edmd._core.twobody import dashpot_central
-from edmd.cli import app
-from edmd.contact import Hertz, LinearDashpot
-from edmd.tables import DEFAULT_BOXES, Box, RestitutionTable, TableError, build_table, check_table, default_table
-from edmd.twobody import collide, solve
+from edmd.app.cli import app
+from edmd.physics.contact import Hertz, LinearDashpot
+from edmd.physics.tables import DEFAULT_BOXES, Box, RestitutionTable, TableError, build_table, check_table, default_table
+from edmd.physics.twobody import collide, solve
 
 SMALL_BOX = Box((0.0, 0.3), (0.0, 0.02), (0.0, 0.9))
 
@@ -158,7 +158,7 @@ def test_build_with_an_executor_is_deterministic(small_tables, tmp_path):
     tab.save(path)
     back = RestitutionTable.load(path)
     assert back.model == "hertz" and back.box == SMALL_BOX and back.shape == (8, 9, 10)
-    assert back.meta["format_version"] == edmd.tables.FORMAT_VERSION
+    assert back.meta["format_version"] == edmd.physics.tables.FORMAT_VERSION
     pts = np.random.default_rng(1).uniform([0, 0, 0], [0.3, 0.02, 0.9], (50, 3))
     assert np.array_equal(back.lookup_many(*pts.T), tab.lookup_many(*pts.T))
     res = check_table(back, points=300, seed=1)
@@ -213,4 +213,4 @@ def test_cli_build_check_info(tmp_path):
 
 
 def test_examples_in_docstrings():
-    assert doctest.testmod(edmd.tables, raise_on_error=False).failed == 0
+    assert doctest.testmod(edmd.physics.tables, raise_on_error=False).failed == 0

@@ -7,7 +7,7 @@ import pytest
 
 import edmd
 from edmd import Simulation, Thermo, read_thermo
-from edmd.thermo import COLUMNS, pressure
+from edmd.files.thermo import COLUMNS, pressure
 
 
 def test_ideal_gas_pressure_formula(dim):

@@ -1,4 +1,4 @@
-"""The Andersen heat bath (``edmd.thermostats``, ``edmd._core.bath``)."""
+"""The Andersen heat bath (``edmd.physics.thermostats``, ``edmd._core.bath``)."""
 
 import math
 
@@ -45,7 +45,7 @@ def test_bath_events_are_poisson_at_the_given_rate(dim):
 def test_energy_balance_closes_with_a_rough_inelastic_gas_in_the_bath(dim):
     # the bath resamples spins too; input - dissipated - (change of energy) = 0 to round-off
     state = _gas(dim, eta=0.1)
-    sim = edmd.Simulation(state, collision=edmd.collide.Rough(e_n=0.8, beta=0.4), thermostat=edmd.Andersen(kT=1.0, rate=0.5, seed=9))
+    sim = edmd.Simulation(state, collision=edmd.physics.collide.Rough(e_n=0.8, beta=0.4), thermostat=edmd.Andersen(kT=1.0, rate=0.5, seed=9))
     e0 = state.kinetic_energy() + state.rotational_energy()
     sim.run(until_time=30.0)
     s, tot = sim.state, sim.totals()
@@ -58,7 +58,7 @@ def test_energy_balance_closes_with_a_rough_inelastic_gas_in_the_bath(dim):
 
 
 def test_disks_stay_in_the_plane_and_spin_about_z():
-    sim = edmd.Simulation(_gas(2), collision=edmd.collide.Rough(e_n=0.9, beta=0.5), thermostat=edmd.Andersen(kT=1.0, rate=2.0))
+    sim = edmd.Simulation(_gas(2), collision=edmd.physics.collide.Rough(e_n=0.9, beta=0.5), thermostat=edmd.Andersen(kT=1.0, rate=2.0))
     sim.run(until_time=5.0)
     e = sim.engine
     assert int(e.cnt[L.C_BATH]) > 1000
@@ -80,7 +80,7 @@ def test_a_restart_continues_bit_for_bit(tmp_path, dim):
     path = tmp_path / "bath.gsd"
 
     def simulation():
-        return edmd.Simulation(_gas(dim), collision=edmd.collide.Rough(e_n=0.9, beta=0.3), thermostat=edmd.Andersen(kT=1.0, rate=0.7, seed=3))
+        return edmd.Simulation(_gas(dim), collision=edmd.physics.collide.Rough(e_n=0.9, beta=0.3), thermostat=edmd.Andersen(kT=1.0, rate=0.7, seed=3))
 
     full = simulation()
     full.add(edmd.Checkpoint(path, interval=2.0))
@@ -136,8 +136,8 @@ def test_thermo_has_the_energy_input_column(tmp_path):
 
 
 def test_config_section_and_cli_reach_the_bath(tmp_path):
-    from edmd.config import parse_config
-    from edmd.runner import build_simulation
+    from edmd.app.config import parse_config
+    from edmd.app.runner import build_simulation
 
     cfg = parse_config({"system": {"n": 108, "packing_fraction": 0.1}, "thermostat": {"kind": "andersen", "kT": 1.5, "rate": 0.25, "seed": 4}})
     sim = build_simulation(cfg)
@@ -187,7 +187,7 @@ def test_kicks_fire_at_exact_times_in_the_calendar(dim):
 @pytest.mark.parametrize("neighbours", ["list", "cells"])
 def test_energy_balance_and_momentum_with_kicks(dim, neighbours):
     sim = edmd.Simulation(
-        _gas(dim, eta=0.15), collision=edmd.collide.Rough(e_n=0.8, beta=0.2), forcing=edmd.WhiteNoise(xi0=1.0, interval=0.02, seed=4), engine={"neighbours": neighbours}
+        _gas(dim, eta=0.15), collision=edmd.physics.collide.Rough(e_n=0.8, beta=0.2), forcing=edmd.WhiteNoise(xi0=1.0, interval=0.02, seed=4), engine={"neighbours": neighbours}
     )
     s0 = sim.state
     p0 = s0.momentum()
@@ -216,7 +216,7 @@ def test_white_noise_with_the_bath_and_a_restart_bit_for_bit(tmp_path):
 
 
 def test_white_noise_refuses_emdstar_and_bad_parameters():
-    from edmd.emdstar import EMDStar
+    from edmd.physics.emdstar import EMDStar
 
     soft = EMDStar(edmd.Hertz(young=1e5, poisson=0.3, A=1e-3))
     with pytest.raises(edmd.StateError, match="white-noise forcing and eMD\\* cannot be combined"):
@@ -232,8 +232,8 @@ def test_white_noise_refuses_emdstar_and_bad_parameters():
 
 
 def test_forcing_config_section():
-    from edmd.config import parse_config
-    from edmd.runner import build_simulation
+    from edmd.app.config import parse_config
+    from edmd.app.runner import build_simulation
 
     cfg = parse_config({"system": {"n": 108, "packing_fraction": 0.1}, "collision": {"rule": "inelastic", "e_n": 0.9}, "forcing": {"kind": "white_noise", "xi0": 0.5, "interval": 0.05}})
     sim = build_simulation(cfg)

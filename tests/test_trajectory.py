@@ -7,7 +7,7 @@ import pytest
 
 import edmd
 from edmd import StateError, Trajectory, read_state, write_state
-from edmd.trajectory import frame_count, iter_states, truncate_frames
+from edmd.files.trajectory import frame_count, iter_states, truncate_frames
 
 
 def _state(dim):
@@ -66,7 +66,7 @@ def test_angmom_and_orientation_follow_hoomd(tmp_path, dim):
     assert np.allclose(p[:, 1:], 2 * s.inertia[:, None] * spin, rtol=1e-15, atol=0)
     # a frame without edmd's log (another program's file) gets its spins from angmom
     del fr.log["particles/angular_velocity"]
-    assert np.allclose(edmd.trajectory.frame_to_state(fr).angular_velocity, s.angular_velocity, rtol=1e-14)
+    assert np.allclose(edmd.files.trajectory.frame_to_state(fr).angular_velocity, s.angular_velocity, rtol=1e-14)
 
 
 def test_freud_reads_a_frame(tmp_path, dim):

@@ -14,10 +14,10 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.special import gamma as Gamma
 
-import edmd.twobody
+import edmd.physics.twobody
 from edmd._core.twobody import dashpot_central
-from edmd.contact import ContactError, Hertz, LinearDashpot
-from edmd.twobody import collide, lab_frame_update, solve
+from edmd.physics.contact import ContactError, Hertz, LinearDashpot
+from edmd.physics.twobody import collide, lab_frame_update, solve
 
 from reference import direct_two_spheres, random_contact
 
@@ -291,4 +291,4 @@ def test_lab_frame_update_checks_its_input():
 
 
 def test_examples_in_docstrings():
-    assert doctest.testmod(edmd.twobody, raise_on_error=False).failed == 0
+    assert doctest.testmod(edmd.physics.twobody, raise_on_error=False).failed == 0

@@ -5,7 +5,7 @@ import pytest
 
 import edmd
 from edmd import Callback, Checkpoint, Simulation, Thermo, Updater, VelocityRescale, WhiteNoise
-from edmd.checkpoint import load_checkpoint
+from edmd.files.checkpoint import load_checkpoint
 
 
 class Jiggle(Updater):
@@ -46,8 +46,8 @@ def test_energy_balance_closes_with_the_input(dim, make):
     """Granular gas under gravity between walls, driven: kinetic + rot + potential + dissipated - input."""
     periodic = [True] * (dim - 1) + [False]
     state = edmd.maxwell_boltzmann(edmd.lattice(64 if dim == 3 else 49, 0.1, dim=dim, periodic=periodic), 1.0, seed=2)
-    rule = edmd.collide.TC(edmd.collide.Inelastic(0.8), duration=1e-3)  # (no inelastic collapse on the floor)
-    sim = Simulation(state, collision=rule, gravity=[0.0] * (dim - 1) + [-0.5], walls=edmd.collide.Wall(e_n=0.9))
+    rule = edmd.physics.collide.TC(edmd.physics.collide.Inelastic(0.8), duration=1e-3)  # (no inelastic collapse on the floor)
+    sim = Simulation(state, collision=rule, gravity=[0.0] * (dim - 1) + [-0.5], walls=edmd.physics.collide.Wall(e_n=0.9))
     sim.add(make())
     thermo = sim.add(Thermo(interval=0.1))
     sim.run(until_time=3.0)

@@ -7,7 +7,7 @@ import pytest
 
 import edmd
 from edmd import collide
-from edmd.engine import CollapseError
+from edmd.run.engine import CollapseError
 
 G = 9.81
 R = 0.01

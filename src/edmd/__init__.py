@@ -1,19 +1,27 @@
-"""edmd: event-driven molecular dynamics of hard and soft spheres and disks."""
+"""edmd: event-driven molecular dynamics of hard and soft spheres and disks.
 
-from .checkpoint import Checkpoint, CheckpointError, read_checkpoint
-from .config import Config, ConfigError, load_config, parse_config
-from .contact import ContactError, Hertz, LinearDashpot
-from .dem import DEMSimulation
-from .engine import CollapseError, EngineError, EngineOptions
+Subpackages by role: :mod:`edmd.physics` (rules, contact laws, eMD*, thermostats),
+:mod:`edmd.run` (simulation, engine, observers), :mod:`edmd.files` (checkpoints, trajectories,
+thermo tables), :mod:`edmd.app` (configuration, runner, CLI, plots, sweeps), :mod:`edmd.analysis`;
+the compiled core is ``edmd._core``. The names users need are importable from ``edmd`` itself,
+and so is the module of collision rules, ``edmd.collide``.
+"""
+
+from .files.checkpoint import Checkpoint, CheckpointError, read_checkpoint
+from .app.config import Config, ConfigError, load_config, parse_config
+from .physics import collide
+from .physics.contact import ContactError, Hertz, LinearDashpot
+from .run.dem import DEMSimulation
+from .run.engine import CollapseError, EngineError, EngineOptions
 from .initial import lattice, maxwell_boltzmann, radii, random_packing
-from .observer import Callback, Observer, Totals
-from .simulation import Simulation
+from .run.observer import Callback, Observer, Totals
+from .run.simulation import Simulation
 from .state import State, StateError
-from .sweeps import SweepError, SweepResult, SweepSpec, sweep, sweep_summary
-from .thermo import Thermo, read_thermo
-from .thermostats import Andersen, WhiteNoise
-from .trajectory import Trajectory, read_state, write_state
-from .updaters import Updater, VelocityRescale
+from .app.sweeps import SweepError, SweepResult, SweepSpec, sweep, sweep_summary
+from .files.thermo import Thermo, read_thermo
+from .physics.thermostats import Andersen, WhiteNoise
+from .files.trajectory import Trajectory, read_state, write_state
+from .run.updaters import Updater, VelocityRescale
 
 __all__ = [
     "Andersen",
@@ -42,6 +50,7 @@ __all__ = [
     "Updater",
     "VelocityRescale",
     "WhiteNoise",
+    "collide",
     "lattice",
     "load_config",
     "maxwell_boltzmann",

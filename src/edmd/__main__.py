@@ -1,5 +1,5 @@
 """``python -m edmd`` is the ``edmd`` command."""
 
-from .cli import app
+from .app.cli import app
 
 app()

@@ -13,7 +13,7 @@ import numpy as np
 from ._core.cells import new_grid
 from ._core.geometry import random_insert, relax_overlaps
 from ._core.layout import make_geo
-from .memory import grid_shape
+from .run.memory import grid_shape
 from .state import State, StateError
 
 LATTICES = {2: ("hex", "square"), 3: ("fcc", "sc")}

@@ -10,7 +10,7 @@ import numpy as np
 from ._core.cells import new_grid
 from ._core.geometry import worst_overlap
 from ._core.layout import make_geo
-from .memory import grid_shape
+from .run.memory import grid_shape
 
 #: relative overlap tolerated as round-off (contacts from a running simulation sit at |r| = sigma)
 OVERLAP_TOLERANCE = 1e-9

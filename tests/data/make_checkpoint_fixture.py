@@ -12,8 +12,8 @@ from pathlib import Path
 
 import edmd
 from edmd import collide
-from edmd.checkpoint import Checkpoint
-from edmd.trajectory import write_state
+from edmd.files.checkpoint import Checkpoint
+from edmd.files.trajectory import write_state
 
 HERE = Path(__file__).parent
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from test_dem import cooling_slopes, dem_two_body_error
 
-from edmd.contact import Hertz
+from edmd.physics.contact import Hertz
 
 pytestmark = pytest.mark.slow
 

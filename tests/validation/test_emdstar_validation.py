@@ -16,7 +16,7 @@ from test_emdstar import gas_comparison
 
 import edmd
 from edmd import Hertz, LinearDashpot, Simulation
-from edmd.emdstar import EMDStar
+from edmd.physics.emdstar import EMDStar
 
 pytestmark = pytest.mark.slow
 

@@ -125,7 +125,7 @@ def test_viscoelastic_gas_cools_by_the_general_law():
 def test_dense_2d_gas_with_tc_does_not_stall():
     """e_n = 0.5 at eta = 0.5 collapses without TC; with TC it runs 1e6 collisions (physics.md §3)."""
     s = edmd.maxwell_boltzmann(edmd.random_packing(2000, 0.5, dim=2, seed=1), 1.0, seed=2)
-    with pytest.raises(edmd.engine.CollapseError):
+    with pytest.raises(edmd.run.engine.CollapseError):
         edmd.Simulation(s, e_n=0.5).run(max_events=5_000_000)
     sim = edmd.Simulation(s, collision=collide.TC(collide.Inelastic(0.5), duration=1e-4))
     sim.run(max_events=3_000_000)

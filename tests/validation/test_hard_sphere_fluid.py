@@ -47,7 +47,7 @@ def measure(dim, n, eta, seed, collisions):
     after = sim.totals()
     s = sim.state
     dt = after.time - before.time
-    p = edmd.thermo.pressure(s, after.kinetic_integral - before.kinetic_integral, after.virial - before.virial, dt)
+    p = edmd.files.thermo.pressure(s, after.kinetic_integral - before.kinetic_integral, after.virial - before.virial, dt)
     z = p / (n / s.volume * s.temperature())
     omega = 2.0 * (after.collisions - before.collisions) / (n * dt)
     return z, omega, after.collisions - before.collisions
@@ -84,7 +84,7 @@ def test_andersen_bath_samples_the_equilibrium_equation_of_state(dim, eta):
     s = sim.state
     dt = after.time - before.time
     kT = 2.0 * (after.kinetic_integral - before.kinetic_integral) / (dt * dim * n)  # time-averaged
-    p = edmd.thermo.pressure(s, after.kinetic_integral - before.kinetic_integral, after.virial - before.virial, dt)
+    p = edmd.files.thermo.pressure(s, after.kinetic_integral - before.kinetic_integral, after.virial - before.virial, dt)
     z = p / (n / s.volume * 1.5)
     chi = chi_cs(eta) if dim == 3 else chi_henderson(eta)
     z_ref = 1 + 2 ** (dim - 1) * eta * chi

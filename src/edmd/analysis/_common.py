@@ -23,7 +23,7 @@ def each_state(system) -> Iterator[State]:
         yield system
         return
     if isinstance(system, (str, os.PathLike)):
-        from ..trajectory import iter_states
+        from ..files.trajectory import iter_states
 
         source = iter_states(system, check_overlaps=False)
     elif isinstance(system, Iterable):

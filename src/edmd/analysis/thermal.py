@@ -190,7 +190,7 @@ class Pressure:
 def _thermo_table(thermo) -> dict[str, np.ndarray]:
     """A thermo table from a Thermo observer, a dict of columns or a CSV path."""
     if isinstance(thermo, (str, os.PathLike)):
-        from ..thermo import read_thermo
+        from ..files.thermo import read_thermo
 
         table = read_thermo(thermo)
     elif hasattr(thermo, "table"):

@@ -1,0 +1,348 @@
+"""Command line: ``edmd run``, ``edmd init``, ``edmd sweep``, ``edmd export``, ``edmd plot``, ``edmd movie``, ``edmd tables``, ``edmd compile``."""
+
+from __future__ import annotations
+
+import collections
+import contextlib
+import logging
+import warnings
+from pathlib import Path
+
+import typer
+from rich.console import Console
+from rich.markup import escape
+from rich.table import Table
+
+from .config import EXAMPLE, ConfigError, default_job, load_config
+from ..state import StateError
+
+app = typer.Typer(add_completion=False, no_args_is_help=True, help="Event-driven molecular dynamics of hard and soft spheres and disks.")
+console = Console()
+err_console = Console(stderr=True)
+
+
+def _warn(message, category, filename, lineno, file=None, line=None):
+    """Warnings of a command as one readable line (not Python's file:line prefix)."""
+    err_console.print(f"[bold yellow]warning:[/] {escape(str(message))}", soft_wrap=True)
+
+
+def _fail(msg: str):
+    err_console.print(f"[bold red]error:[/] {escape(msg)}", soft_wrap=True)  # unbroken lines: paths stay greppable
+    raise typer.Exit(code=2)
+
+
+def _load_job(config: Path | None, start_from: Path | None, frame: int):
+    """The configuration of a new run: a file or the built-in showcase, optionally started from a GSD frame."""
+    if config is not None:
+        cfg = load_config(config)
+    else:
+        cfg = default_job()
+        s, c = cfg.system, cfg.collision
+        console.print(
+            f"[dim]no config given: running the built-in showcase, a cooling granular gas "
+            f"({s.dim}D, N = {s.n}, eta = {s.packing_fraction}, e_n = {c.e_n}, until t = {cfg.run.until_time:g})[/]"
+        )
+    if start_from is not None:
+        if not start_from.is_file():
+            raise StateError(f"--from: no file {start_from}")
+        cfg.system.from_file = str(start_from.resolve())
+        cfg.system.from_frame = frame
+        console.print(f"[dim]initial state: frame {frame} of {start_from} (\\[system] settings are ignored)[/]")
+    return cfg
+
+
+@app.command()
+def run(
+    config: Path = typer.Argument(None, help="TOML configuration; without it the built-in showcase runs."),
+    out: Path = typer.Option(Path("edmd-run"), "--out", "-o", help="Run directory for config, thermo, trajectory, checkpoint, plots."),
+    start_from: Path = typer.Option(None, "--from", help="Start from a frame of this GSD file (the \\[system] settings are then ignored)."),
+    frame: int = typer.Option(-1, "--frame", help="Frame of --from (negative counts from the end)."),
+    restart: Path = typer.Option(None, "--restart", help="Continue the run in this directory from its checkpoint."),
+    until_time: float = typer.Option(None, "--until-time", help="With --restart: new end time (simulation time)."),
+    force: bool = typer.Option(False, "--force", help="Replace a run already in --out (all its files are removed first)."),
+    max_memory: str = typer.Option(None, "--max-memory", help="Refuse to start above this estimated memory, e.g. 8G (default: the memory available)."),
+    debug: bool = typer.Option(False, "--debug", help="Check every collision for overlaps (slow; sets \\[engine] debug)."),
+    progress: bool = typer.Option(True, "--progress/--no-progress", help="Show progress (a bar on a terminal, a line every few percent otherwise)."),
+):
+    """Run a simulation and write its run directory (or continue one with --restart)."""
+    from ..files.checkpoint import CheckpointError
+    from ..run.engine import EngineError
+    from .runner import restart_directory, run_directory
+
+    try:
+        with warnings.catch_warnings(), _announce_compiles():
+            warnings.showwarning = _warn  # restored on exit (the CLI may run inside another program)
+            if restart is not None:
+                if config is not None or start_from is not None or force or debug:
+                    raise ConfigError("--restart continues a run directory with its own configuration: give no CONFIG, --from, --force or --debug")
+                out = restart
+                summary = restart_directory(restart, until_time=until_time, progress=None if progress else False)
+            else:
+                if until_time is not None:
+                    raise ConfigError("--until-time goes with --restart; set [run] until_time in the configuration")
+                cfg = _load_job(config, start_from, frame)
+                if debug:
+                    cfg.engine.debug = True
+                summary = run_directory(cfg, out, progress=progress and cfg.run.progress, force=force, max_memory=max_memory)
+    except (ConfigError, StateError, CheckpointError, ValueError, OSError, EngineError) as exc:
+        _fail(str(exc))
+    except KeyboardInterrupt:
+        err_console.print(f"[bold yellow]interrupted:[/] continue with `edmd run --restart {out}`")
+        raise typer.Exit(code=130) from None
+    table = Table(title=f"edmd run -> {out}", show_header=False)
+    keys = ("time", "collisions", "events", "temperature", "collisions_per_second", "particle_steps_per_second", "neighbours", "checkpoint_time")
+    pressures = [k for k in summary if k.endswith("pressure_mean")]
+    for key in keys[:4] + tuple(pressures) + keys[4:]:
+        if key in summary:
+            v = summary[key]
+            table.add_row(key, f"{v:.6g}" if isinstance(v, float) else str(v))
+    console.print(table)
+
+
+@app.command()
+def export(
+    source: Path = typer.Argument(..., help="A GSD file or a run directory (its trajectory.gsd)."),
+    output: Path = typer.Argument(..., help="Output file: .xyz (extended XYZ: ASE, OVITO) or .csv."),
+    frame: int = typer.Option(-1, "--frame", help="Frame to export (negative counts from the end)."),
+):
+    """Export one frame as extended XYZ or CSV."""
+    from ..files.export import export_frame
+
+    try:
+        state = export_frame(source, output, frame)
+    except (StateError, ValueError, OSError) as exc:
+        _fail(str(exc))
+    console.print(f"wrote {output} (t = {state.time:g}, N = {state.n})")
+
+
+@app.command()
+def plot(
+    run_dir: Path = typer.Argument(Path("edmd-run"), help="A run directory written by `edmd run`."),
+    color: str = typer.Option("speed", "--color", help="Snapshot colouring: 'speed' or 'spin'."),
+):
+    """Write the standard figures (PNG) of a run directory into it."""
+    from .plots import plot_run
+
+    try:
+        files = plot_run(run_dir, color_by=color)
+    except (StateError, ValueError, OSError) as exc:
+        _fail(str(exc))
+    for f in files:
+        console.print(f"wrote {f}")
+
+
+@app.command()
+def movie(
+    source: Path = typer.Argument(Path("edmd-run"), help="A run directory (its trajectory.gsd) or a GSD file."),
+    out: Path = typer.Option(None, "--out", "-o", help="Movie file: .gif, or .mp4 (needs ffmpeg). Default: movie.gif in the run directory."),
+    color: str = typer.Option("speed", "--color", help="Colouring: 'speed' (|v| / rms speed) or 'density' (local packing fraction)."),
+    fps: int = typer.Option(10, "--fps", min=1, help="Frames per second."),
+    frames: int = typer.Option(None, "--frames", min=1, help="At most this many frames (every k-th trajectory frame)."),
+    max_particles: int = typer.Option(20_000, "--max-particles", min=1, help="Draw at most this many particles (a fixed random subset)."),
+):
+    """Make a movie of a 2D run or of the z = 0 slab of a 3D run, coloured by speed or local density."""
+    from .movie import make_movie
+
+    try:
+        path = make_movie(source, out, color_by=color, fps=fps, frames=frames, max_particles=max_particles)
+    except (StateError, ValueError, OSError) as exc:
+        _fail(str(exc))
+    console.print(f"wrote {path}")
+
+
+class _CompileNotice(logging.Handler):
+    """Prints the engine's notice that a run compiles its loop variant (``edmd.compile`` logger)."""
+
+    def emit(self, record):
+        console.print(f"[dim]{escape(record.getMessage())}[/]", soft_wrap=True)
+
+
+@contextlib.contextmanager
+def _announce_compiles():
+    """Print compile notices while the command runs (removed after: the CLI may run inside another program)."""
+    logger = logging.getLogger("edmd.compile")
+    level = logger.level
+    handler = _CompileNotice()
+    logger.setLevel(logging.INFO)
+    logger.addHandler(handler)
+    try:
+        yield
+    finally:
+        logger.removeHandler(handler)
+        logger.setLevel(level)
+
+
+@app.command("compile")
+def compile_(
+    features: list[str] = typer.Argument(None, help="Feature sets, e.g. plain walls+rough emdstar (default: plain)."),
+    all_: bool = typer.Option(False, "--all", help="Every feature set but debug (52 variants, a few minutes)."),
+):
+    """Compile the event loop ahead of time for these feature sets (for a cluster image, sweep workers or CI).
+
+    Features: plain, or walls, rough, viscoelastic, soft, emdstar, bath, noise joined by '+'.
+    """
+    from .precompile import FeatureError, all_feature_sets, compile_features, parse_features
+
+    try:
+        sets = all_feature_sets() if all_ else [parse_features(f) for f in (features or ["plain"])]
+    except FeatureError as exc:
+        _fail(str(exc))
+    for found in sets:
+        with console.status(f"compiling {'+'.join(sorted(found)) or 'plain'} ..."):
+            name, seconds, cached = compile_features(found)
+        console.print(f"{name}: {'already cached' if cached else 'compiled'} ({seconds:.1f} s)")
+
+
+@app.command()
+def init(
+    path: Path = typer.Argument(Path("edmd.toml"), help="Where to write the example configuration."),
+    force: bool = typer.Option(False, "--force", help="Overwrite an existing file."),
+):
+    """Write a commented example configuration."""
+    if path.exists() and not force:
+        _fail(f"{path} exists; use --force to overwrite")
+    path.write_text(EXAMPLE)
+    console.print(f"wrote {path}")
+
+
+@app.command()
+def sweep(
+    sweep_file: Path = typer.Argument(None, help="Sweep file (TOML): a base configuration and a \\[grid] and/or \\[\\[points]] of overrides."),
+    out: Path = typer.Option(None, "--out", "-o", help="Sweep directory (default: <sweep file name>-sweep)."),
+    workers: int = typer.Option(None, "--workers", "-w", min=1, help="Local worker processes, or the --dask cluster size (default: one per CPU)."),
+    scheduler: str = typer.Option(None, "--scheduler", help="Run on the dask.distributed cluster of this scheduler (tcp://host:8786)."),
+    dask: bool = typer.Option(False, "--dask", help="Run on a local dask.distributed cluster (pip install 'edmd\\[dask]')."),
+    summary: Path = typer.Option(None, "--summary", help="Only rebuild the results table of this sweep directory."),
+    progress: bool = typer.Option(True, "--progress/--no-progress", help="Show a progress bar counting points."),
+):
+    """Run a parameter sweep (resumable: finished points are skipped), or rebuild its results table."""
+    from .sweeps import SweepError, dask_executor, sweep_summary
+    from .sweeps import sweep as run_sweep
+
+    if (sweep_file is None) == (summary is None):
+        _fail("give a sweep file, or --summary DIR to rebuild the results table of a sweep directory")
+    try:
+        if summary is not None:
+            _report_summary(summary, sweep_summary(summary))
+            return
+        out = out if out is not None else Path(f"{sweep_file.stem}-sweep")
+        with contextlib.ExitStack() as stack:
+            executor = stack.enter_context(dask_executor(scheduler, workers)) if (dask or scheduler) else None
+            result = run_sweep(sweep_file, out, executor=executor, workers=None if executor else workers, progress=progress)
+    except (SweepError, ConfigError) as exc:
+        _fail(str(exc))
+    _report_summary(result.directory, result.table, f"ran {result.ran}, skipped {result.skipped} finished before; ")
+    if result.failed:
+        raise typer.Exit(code=1)
+
+
+def _report_summary(directory: Path, table, head: str = ""):
+    counts = collections.Counter(row["status"] for row in table.rows)
+    console.print(f"sweep {escape(str(directory))}: {len(table.rows)} points; {head}" + ", ".join(f"{n} {s}" for s, n in sorted(counts.items())), soft_wrap=True)
+    failed = [row for row in table.rows if row["status"] == "failed"]
+    if failed:
+        listing = Table("point", "error", title="failed points (traceback in points/<point>/error.txt)")
+        for row in failed[:10]:
+            listing.add_row(row["point"], escape(row["error"]))
+        if len(failed) > 10:
+            listing.add_row("...", f"and {len(failed) - 10} more (edmd sweep --summary {directory})")
+        err_console.print(listing)
+    console.print("results: " + escape(", ".join(str(p) for p in table.paths)), soft_wrap=True)
+
+
+tables_app = typer.Typer(no_args_is_help=True, help="Lookup tables of the matrix of restitution (soft contacts).")
+app.add_typer(tables_app, name="tables")
+
+
+@tables_app.command("build")
+def tables_build(
+    model: str = typer.Option(..., "--model", "-m", help="Contact model: dashpot or hertz."),
+    ranges: str = typer.Option("", "--ranges", "-r", help="Box, e.g. 'damping=0:0.5,log10_softness=-6:-0.7,b=0:0.99' (missing keys: the model's default)."),
+    shape: str = typer.Option("", "--shape", help="Nodes per axis, e.g. '17,41,49' (default: the model's default)."),
+    workers: int = typer.Option(0, "--workers", "-j", help="Processes (0: all cores)."),
+    out: Path = typer.Option(None, "--out", "-o", help="Output .npz file (default: restitution_MODEL.npz)."),
+    check: int = typer.Option(2000, "--check", help="Random points to check against the direct solver afterwards (0: skip)."),
+    progress: bool = typer.Option(True, "--progress/--no-progress", help="Show a progress bar."),
+):
+    """Build a table by direct solves spread over processes, save it and check its accuracy."""
+    from ..physics.tables import Box, TableError, build_table, check_table
+
+    try:
+        box = Box.parse(ranges, model)
+        dims = tuple(int(x) for x in shape.split(",")) if shape else None
+        tab = build_table(model, box, dims, workers=workers or None, progress=progress)
+    except (TableError, ValueError) as exc:
+        _fail(str(exc))
+    path = out or Path(f"restitution_{tab.model}.npz")
+    tab.save(path)
+    console.print(f"wrote {path}: {tab!r} in {tab.meta['build_seconds']:.3g} s")
+    if check:
+        _print_check(check_table(tab, check))
+
+
+@tables_app.command("check")
+def tables_check(
+    path: Path = typer.Argument(..., help="A table file (.npz)."),
+    points: int = typer.Option(10_000, "--points", "-n", help="Random points in the box."),
+    sampling: str = typer.Option("log", "--sampling", help="Softness sampling: log or linear."),
+    seed: int = typer.Option(0, "--seed"),
+):
+    """Largest relative error of a table against the direct solver at random points of its box."""
+    from ..physics.tables import RestitutionTable, TableError, check_table
+
+    try:
+        _print_check(check_table(RestitutionTable.load(path), points, seed, sampling))
+    except TableError as exc:
+        _fail(str(exc))
+
+
+@tables_app.command("info")
+def tables_info(path: Path = typer.Argument(..., help="A table file (.npz).")):
+    """Model, box, grid and provenance of a table file."""
+    from ..physics.tables import RestitutionTable, TableError
+
+    try:
+        tab = RestitutionTable.load(path)
+    except TableError as exc:
+        _fail(str(exc))
+    console.print(repr(tab))
+    for key, value in sorted(tab.meta.items()):
+        console.print(f"  {key}: {value}")
+
+
+@tables_app.command("plot")
+def tables_plot(
+    path: Path = typer.Argument(None, help="A table file (.npz); or --model for a default table."),
+    model: str = typer.Option(None, "--model", "-m", help="Draw the default table of this contact model: dashpot or hertz."),
+    out: Path = typer.Option(None, "--out", "-o", help="Output PNG (default: restitution_MODEL.png, or the table file's name with .png)."),
+    damping: str = typer.Option("", "--damping", "-d", help="Damping values, one row each, e.g. '0,0.1,0.3' (default: low, middle, high end of the table)."),
+):
+    """Draw Phi, eps_hat, D and tau_c of a table against softness and eccentricity, one row per damping."""
+    from .tableplot import plot_table
+    from ..physics.tables import TableError, default_table
+
+    if (path is None) == (model is None):
+        _fail("give a table file or --model dashpot|hertz (not both)")
+    out = out or (path.with_suffix(".png") if path is not None else Path(f"restitution_{model}.png"))
+    try:
+        values = [float(x) for x in damping.split(",")] if damping else None
+    except ValueError:
+        _fail(f"--damping must be numbers separated by commas, got {damping!r}")
+    try:
+        plot_table(path if path is not None else default_table(model), damping=values, out=out)
+    except (TableError, OSError) as exc:
+        _fail(str(exc))
+    console.print(f"wrote {out}")
+
+
+def _print_check(res: dict):
+    table = Table(title=f"table vs direct solver, {res['points']} points ({res['sampling']} softness)", show_header=False)
+    for key in ("Phi", "1-D", "tau_c", "eps_hat"):
+        table.add_row(f"max relative error of {key}", f"{res[key]:.2e}")
+    table.add_row("max relative error, all outputs", f"{res['max']:.2e}")
+    table.add_row("worst point (damping, softness, b)", ", ".join(f"{x:.6g}" for x in res["worst_point"]))
+    console.print(table)
+
+
+def main():  # pragma: no cover
+    app()

@@ -1,0 +1,124 @@
+"""Compile the event loop ahead of time (``edmd compile``): one cached variant per feature set.
+
+A run compiles only the loop variant of its physics (:func:`edmd._core.loop.loop_variant`): walls,
+eMD*, a tangential law and the normal law. The first run of each feature set pays that compile
+(about 15-45 CPU-seconds); later runs load it from Numba's on-disk cache. A cluster image, a
+sweep's workers or CI can warm the cache for the feature sets they will use.
+
+Features are written as ``+``-joined names: ``plain``, ``walls``, ``rough``, ``viscoelastic``,
+``soft`` (the central restitution of a soft contact law used instantaneously), ``emdstar``,
+``bath`` (the Andersen heat bath, :class:`edmd.Andersen`), ``noise`` (white-noise kicks,
+:class:`edmd.WhiteNoise`) and ``debug`` (the per-collision checks
+of ``[engine] debug``), e.g. ``walls+rough+viscoelastic``.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+
+from .._core import layout as L
+from .._core.jit import in_disk_cache
+from .._core.loop import loop_variant
+
+FEATURES = ("walls", "rough", "viscoelastic", "soft", "emdstar", "bath", "noise", "debug")
+
+
+class FeatureError(ValueError):
+    """A feature set that is misspelt or cannot occur in one run."""
+
+
+def parse_features(spec: str) -> frozenset[str]:
+    """The features of ``spec`` (``"plain"`` or names joined by ``+``), checked for consistency.
+
+    Example:
+        >>> sorted(parse_features("walls+rough"))
+        ['rough', 'walls']
+        >>> parse_features("emdstar+rough")
+        Traceback (most recent call last):
+        ...
+        edmd.app.precompile.FeatureError: emdstar runs are smooth and use their soft contact law: it cannot be combined with rough, viscoelastic or soft
+    """
+    names = [n.strip() for n in spec.split("+") if n.strip()]
+    if names == ["plain"]:
+        return frozenset()
+    unknown = [n for n in names if n not in FEATURES]
+    if unknown or not names:
+        raise FeatureError(f"unknown feature {unknown[0] if unknown else spec!r}; the features are plain or {', '.join(FEATURES)} joined by '+'")
+    found = frozenset(names)
+    if "emdstar" in found and found & {"rough", "viscoelastic", "soft"}:
+        raise FeatureError("emdstar runs are smooth and use their soft contact law: it cannot be combined with rough, viscoelastic or soft")
+    if {"emdstar", "noise"} <= found:
+        raise FeatureError("white-noise kicks and eMD* cannot be combined")
+    if {"viscoelastic", "soft"} <= found:
+        raise FeatureError("choose one normal law: viscoelastic or soft")
+    return found
+
+
+def all_feature_sets() -> list[frozenset[str]]:
+    """Every feature set a run can have, less debug mode (the variants ``edmd compile --all`` builds)."""
+    sets = []
+    for walls in ((), ("walls",)):
+        for normal in ((), ("viscoelastic",), ("soft",)):
+            for rough in ((), ("rough",)):
+                sets.append(frozenset(walls + normal + rough))
+        sets.append(frozenset(walls + ("emdstar",)))
+    driven = [s | extra for s in sets for extra in ({"bath"}, {"noise"}, {"bath", "noise"}) if not ("emdstar" in s and "noise" in extra)]
+    return sets + driven
+
+
+def _variant(features: frozenset[str]):
+    normal = L.NORMAL_CONST
+    if "viscoelastic" in features:
+        normal = L.NORMAL_VISCO
+    elif "soft" in features or "emdstar" in features:
+        normal = L.NORMAL_SOFT
+    return loop_variant(
+        "walls" in features, "emdstar" in features, "rough" in features, normal, "debug" in features, "bath" in features, "noise" in features
+    )
+
+
+def _example(features: frozenset[str]):
+    """A small simulation with exactly these features (its first events compile the variant)."""
+    import edmd
+    from ..physics.collide import Rough, Viscoelastic
+    from ..physics.contact import Hertz
+    from ..physics.emdstar import EMDStar
+    from ..physics.thermostats import Andersen, WhiteNoise
+
+    hertz = Hertz(young=1e5, poisson=0.3, A=1e-3)
+    normal = 0.9
+    if "viscoelastic" in features:
+        normal = Viscoelastic(young=1e5, poisson=0.3, A=1e-4)
+    elif "soft" in features:
+        normal = hertz
+    rule = Rough(e_n=normal, beta=0.5) if "rough" in features else Rough(e_n=normal)
+    if "emdstar" in features:
+        rule = EMDStar(hertz)
+    periodic = [True, True, "walls" not in features]
+    state = edmd.maxwell_boltzmann(edmd.lattice(32, 0.1, periodic=periodic), 1.0, seed=1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # e.g. the viscoelastic validity warning of this toy system
+        bath = Andersen(kT=1.0, rate=0.1) if "bath" in features else None
+        kicks = WhiteNoise(xi0=1.0, interval=0.1) if "noise" in features else None
+        return edmd.Simulation(state, collision=rule, thermostat=bath, forcing=kicks, engine={"debug": "debug" in features})
+
+
+def compile_features(features: frozenset[str]) -> tuple[str, float, bool]:
+    """Compile (or load) the loop variant of ``features``.
+
+    Returns its name, the seconds it took and whether it was already in the on-disk cache.
+
+    Example:
+        >>> name, seconds, cached = compile_features(parse_features("plain"))
+        >>> name
+        'plain'
+    """
+    loop = _variant(features)
+    cached = in_disk_cache(loop.run_events)
+    start = time.perf_counter()
+    sim = _example(features)
+    if sim.engine.loop is not loop:  # the toy system must have exactly the features asked for
+        raise RuntimeError(f"internal error: {sim.engine.loop.name} built for {loop.name}")
+    sim.run(max_events=200)
+    return loop.name, time.perf_counter() - start, cached

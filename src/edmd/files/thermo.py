@@ -1,0 +1,212 @@
+"""Thermodynamic output: temperature, pressure, collision rate per output interval (CSV)."""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import os
+
+import numpy as np
+
+from .atomic import write_atomic
+from ..run.observer import Observer, Totals
+from ..run.simulation import Simulation
+from ..state import State
+
+COLUMNS = (
+    "time",
+    "events",
+    "collisions",
+    "kinetic_energy",
+    "temperature",
+    "rotational_energy",
+    "temperature_rot",
+    "potential_energy",
+    "dissipated_energy",
+    "energy_balance",
+    "pressure",
+    "collision_rate",
+    "wall_collisions",
+)
+AXES = "xyz"
+
+# Columns that are running totals: summaries (the sweep results table) report their final value
+# and time-average every other column. Counters added to the table later belong here too.
+CUMULATIVE = (
+    "time", "events", "collisions", "dissipated_energy", "emd_contacts", "emd_exceptions_a", "emd_exceptions_b",
+    "emd_fallbacks", "energy_input",
+)  # fmt: skip
+
+
+def pressure(state: State, d_kinetic_integral: float, d_virial: float, dt: float) -> float:
+    r"""Pressure over an interval from the kinetic-energy integral and the collision virial.
+
+    physics.md §5.3:
+
+    .. math::
+        P = \frac{1}{dV}\Big[\frac{1}{t_{\rm obs}}\int \sum_i m_i |\mathbf v_i - \mathbf u|^2\,dt
+            + \frac{1}{t_{\rm obs}}\sum_{\rm coll}\mathbf r_{ij}\cdot\mathbf J\Big]
+
+    with the mean-flow term :math:`M|\mathbf u|^2` taken from the momentum at the end of the
+    interval (conserved in a periodic box without gravity).
+    """
+    if dt <= 0:
+        return math.nan
+    p = state.momentum()
+    kin = 2.0 * d_kinetic_integral / dt - float(p @ p) / state.mass.sum()
+    return (kin + d_virial / dt) / (state.dim * state.volume)
+
+
+class Thermo(Observer):
+    """Thermodynamic table, one row per interval, optionally written to a CSV file.
+
+    Each row holds the instantaneous ``time, events, collisions``, the translational
+    ``kinetic_energy`` and ``temperature``, the ``rotational_energy`` and ``temperature_rot``,
+    the gravitational ``potential_energy``, the cumulative ``dissipated_energy`` and their sum
+    ``energy_balance`` (constant to round-off: kinetic + rotational + potential + dissipated),
+    and, averaged over the interval that ends there, the ``pressure`` (kinetic + collision
+    virial, physics.md §5.3; meaningful in periodic directions), the ``collision_rate`` per
+    particle :math:`2\\Delta N_{\\rm coll}/(N\\Delta t)` and, for every axis closed by walls,
+    ``wall_pressure_<axis>``: the mean normal force per area on its two walls. eMD* runs
+    (:class:`edmd.physics.emdstar.EMDStar`) add the cumulative counters ``emd_contacts`` (A events),
+    ``emd_exceptions_a``, ``emd_exceptions_b`` and ``emd_fallbacks`` (physics.md §4.8); their
+    energies and temperatures use committed velocities. Runs with updaters (thermostats,
+    forcing: :mod:`edmd.run.updaters`) add the cumulative ``energy_input``, which ``energy_balance``
+    subtracts. The first row has no interval (NaN).
+    An existing CSV file is appended to; its header must name the same columns (``ValueError``
+    naming the file and the differing columns otherwise).
+
+    Example:
+        >>> import edmd
+        >>> sim = edmd.Simulation(edmd.maxwell_boltzmann(edmd.lattice(256, 0.1), 1.0, seed=1))
+        >>> th = sim.add(Thermo(interval=1.0))
+        >>> sim.run(until_time=3.0)
+        >>> [round(r["time"], 6) for r in th.rows], round(th.rows[-1]["temperature"], 9)
+        ([0.0, 1.0, 2.0, 3.0], 1.0)
+    """
+
+    def __init__(self, interval: float, path: str | os.PathLike | None = None, start: float | None = None):
+        super().__init__(interval, start)
+        self.rows: list[dict] = []
+        self.path = path
+        self._file = None
+        self._writer = None
+        self._last: Totals | None = None
+
+    def observe(self, sim: Simulation, state: State, totals: Totals):
+        kinetic, rotational = state.kinetic_energy(), state.rotational_energy()
+        potential = state.potential_energy(sim.gravity) + sim.elastic_energy  # + soft contacts (DEM)
+        row = {
+            "time": totals.time,
+            "events": totals.events,
+            "collisions": totals.collisions,
+            "kinetic_energy": kinetic,
+            "temperature": state.temperature(),
+            "rotational_energy": rotational,
+            "temperature_rot": state.rotational_temperature(),
+            "potential_energy": potential,
+            "dissipated_energy": totals.dissipated,
+            "energy_balance": kinetic + rotational + potential + totals.dissipated - totals.energy_input,
+            "pressure": math.nan,
+            "collision_rate": math.nan,
+            "wall_collisions": totals.wall_collisions,
+        }
+        walls = np.flatnonzero(~state.periodic)
+        for k in walls:
+            row[f"wall_pressure_{AXES[k]}"] = math.nan
+        last = self._last
+        if last is not None and totals.time > last.time:
+            dt = totals.time - last.time
+            row["pressure"] = pressure(state, totals.kinetic_integral - last.kinetic_integral, totals.virial - last.virial, dt)
+            row["collision_rate"] = 2.0 * (totals.collisions - last.collisions) / (state.n * dt)
+            for k in walls:
+                area = state.volume / state.box[k]
+                row[f"wall_pressure_{AXES[k]}"] = float((totals.wall_impulse[k] - last.wall_impulse[k]).sum()) / (2.0 * area * dt)
+        row.update(sim.emd_counters())
+        if sim.has_energy_input:
+            row["energy_input"] = totals.energy_input
+        self._last = totals
+        self.rows.append(row)
+        if self.path is not None:
+            self._write(row)
+
+    def _write(self, row):
+        if self._file is None:
+            new = not os.path.exists(self.path) or os.path.getsize(self.path) == 0
+            if not new:
+                _check_header(self.path, list(row))
+            self._file = open(self.path, "a", newline="")
+            self._writer = csv.DictWriter(self._file, fieldnames=list(row))
+            if new:
+                self._writer.writeheader()
+        self._writer.writerow(_csv_row(row))
+        self._file.flush()
+
+    def checkpoint_data(self) -> dict:
+        """Schedule, the rows (exact float64 table) and the totals of the last row."""
+        data = super().checkpoint_data()
+        columns = self.columns()
+        data["columns"] = columns
+        data["integer_columns"] = [c for c in columns if self.rows and isinstance(self.rows[0][c], int)]
+        data["last"] = None if self._last is None else self._last.to_dict()
+        if self.rows:
+            data["rows"] = np.array([[float(r[c]) for c in columns] for r in self.rows], np.float64)
+        return data
+
+    def columns(self) -> list[str]:
+        """The table's columns: :data:`COLUMNS` plus one ``wall_pressure_<axis>`` per wall axis (and eMD*
+        counters, and ``energy_input`` when updaters change the system)."""
+        return list(self.rows[0]) if self.rows else list(COLUMNS)
+
+    def restore_data(self, data: dict):
+        """Continue from a checkpoint; the CSV file is rewritten (atomically) from the saved rows."""
+        super().restore_data(data)
+        columns, ints = list(data["columns"]), set(data["integer_columns"])
+        extra = columns[len(COLUMNS) :]
+        if columns[: len(COLUMNS)] != list(COLUMNS) or not all(c.startswith(("wall_pressure_", "emd_", "energy_input")) for c in extra):
+            raise ValueError(f"thermo columns {columns} differ from this version's {list(COLUMNS)} (+ wall pressures, eMD* counters, energy input)")
+        table = np.asarray(data.get("rows", np.zeros((0, len(columns)))), np.float64)
+        self.rows = [{c: int(v) if c in ints else float(v) for c, v in zip(columns, r)} for r in table]
+        self._last = None if data["last"] is None else Totals.from_dict(data["last"])
+        self.close()
+        if self.path is not None:
+            buf = io.StringIO(newline="")
+            writer = csv.DictWriter(buf, fieldnames=columns)
+            writer.writeheader()
+            writer.writerows(_csv_row(r) for r in self.rows)
+            write_atomic(self.path, buf.getvalue())
+
+    def table(self) -> dict[str, np.ndarray]:
+        """The rows as a dict of column arrays."""
+        return {c: np.array([r[c] for r in self.rows]) for c in self.columns()}
+
+    def close(self):
+        if self._file is not None:
+            self._file.close()
+            self._file = None
+
+
+def _check_header(path, columns: list[str]):
+    """Raise ``ValueError`` naming ``path`` and the differing columns if its header is not ``columns``."""
+    with open(path, newline="") as f:
+        have = next(csv.reader(f), [])
+    if have == columns:
+        return
+    old, now = [c for c in have if c not in columns], [c for c in columns if c not in have]
+    diff = f"only in the file: {old}; only in this run: {now}" if old or now else "the same columns in another order"
+    raise ValueError(f"{path} has the thermo columns {have}; this run writes {columns} ({diff}): remove the file or write to another one")
+
+
+def _csv_row(row: dict) -> dict:
+    """A thermo row as CSV cells: floats as their shortest exact ``repr``."""
+    return {k: repr(float(v)) if isinstance(v, float) else v for k, v in row.items()}
+
+
+def read_thermo(path: str | os.PathLike) -> dict[str, np.ndarray]:
+    """Read a thermo CSV written by :class:`Thermo` into a dict of column arrays."""
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    if not rows:
+        return {}
+    return {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}

@@ -1,0 +1,347 @@
+"""Trajectories in GSD 5, double precision (readable by HOOMD-blue, OVITO, freud, MDAnalysis).
+
+Standard chunks: positions, velocities, diameters, masses, moments of inertia, images, box,
+dimensions, step, orientations (identity quaternions: spheres have no orientation) and angular
+momenta in HOOMD's convention (``particles/angmom``, see :func:`angmom`). Under ``log/``: the
+continuous ``time``, the ``events`` and ``collisions`` counters, the exact double-precision box
+(``log/configuration/box``), the periodic flags, the radii and ``log/particles/angular_velocity``.
+
+``configuration/step`` is the cumulative event count (``log/events``): it grows with time, at no
+fixed rate. A frame's time is ``log/time``; trajectories space frames evenly, ``start + k *
+interval``. ``configuration/box`` is the box rounded to single precision (gsd.hoomd casts the
+box to float32 even in double-precision files): the exact box is ``log/configuration/box``.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterator
+
+import gsd.fl
+import gsd.hoomd
+import numpy as np
+
+from .atomic import atomic_path
+from ..run.observer import Observer, Totals
+from ..run.simulation import Simulation
+from ..state import State, StateError
+
+
+def angmom(state: State) -> np.ndarray:
+    r"""Angular momenta as HOOMD-blue quaternions, ``(N, 4)``.
+
+    HOOMD stores the angular momentum as the quaternion conjugate to the orientation ``q``,
+    :math:`\mathbf P = 2\,\mathbf q \otimes (0, \mathbf S)` with :math:`\mathbf S` the angular
+    momentum in the particle's principal frame. Spheres and disks keep the identity orientation
+    ``q = (1, 0, 0, 0)``, so :math:`\mathbf P = (0, 2 I \boldsymbol\omega)`; a disk spins about
+    ``z`` only: :math:`\mathbf P = (0, 0, 0, 2 I \omega_z)`.
+
+    Example:
+        >>> s = State(position=[[0.0, 0.0]], velocity=[[0.0, 0.0]], radius=0.5, mass=1.0, box=[4.0, 4.0],
+        ...           angular_velocity=[3.0])
+        >>> angmom(s).tolist()
+        [[0.0, 0.0, 0.0, 0.75]]
+    """
+    p = np.zeros((state.n, 4))
+    if state.dim == 3:
+        p[:, 1:] = 2.0 * state.inertia[:, None] * state.angular_velocity
+    else:
+        p[:, 3] = 2.0 * state.inertia * state.angular_velocity
+    return p
+
+
+def state_to_frame(state: State, totals: Totals | None = None, pending: bool | None = None) -> gsd.hoomd.Frame:
+    """A GSD frame holding every field of ``state`` (and the counters of ``totals``).
+
+    Pending eMD* contacts go under ``log/particles/pending_*`` when ``pending`` is true (default:
+    when the state has any). GSD reads a missing log entry from frame 0, so a file either has
+    them in every frame or in none: trajectories of eMD* runs pass ``pending=True``.
+    """
+    n, d = state.n, state.dim
+    f = gsd.hoomd.Frame()
+    f.configuration.dimensions = d
+    f.configuration.step = 0 if totals is None else totals.events
+    box = np.zeros(6, np.float32)  # what GSD stores: the exact box is log/configuration/box
+    box[:d] = state.box
+    f.configuration.box = box
+    f.particles.N = n
+    f.particles.position = state.points
+    vel = np.zeros((n, 3))
+    vel[:, :d] = state.velocity
+    f.particles.velocity = vel
+    f.particles.diameter = 2.0 * state.radius
+    f.particles.mass = state.mass.copy()
+    inertia = np.zeros((n, 3))
+    if d == 3:
+        inertia[:] = state.inertia[:, None]
+    else:
+        inertia[:, 2] = state.inertia
+    f.particles.moment_inertia = inertia
+    image = np.zeros((n, 3), np.int32)
+    image[:, :d] = state.image
+    f.particles.image = image
+    orientation = np.zeros((n, 4))
+    orientation[:, 0] = 1.0
+    f.particles.orientation = orientation
+    f.particles.angmom = angmom(state)
+    f.log["time"] = np.array([state.time], np.float64)
+    f.log["configuration/box"] = state.box.astype(np.float64)
+    f.log["configuration/periodic"] = state.periodic.astype(np.uint8)
+    f.log["particles/angular_velocity"] = np.asarray(state.angular_velocity, np.float64)
+    f.log["particles/radius"] = state.radius.astype(np.float64)
+    f.log["particles/last_collision"] = state.last_collision.astype(np.float64)  # in every frame (GSD defaults)
+    if state.has_pending if pending is None else pending:
+        f.log["particles/pending_velocity"] = np.asarray(state.pending_velocity, np.float64)
+        f.log["particles/pending_until"] = np.asarray(state.pending_until, np.float64)
+        f.log["particles/pending_partner"] = np.asarray(state.pending_partner, np.int64)
+    if totals is not None:
+        f.log["events"] = np.array([totals.events], np.int64)
+        f.log["collisions"] = np.array([totals.collisions], np.int64)
+    return f
+
+
+def frame_to_state(frame: gsd.hoomd.Frame, check_overlaps: bool = True) -> State:
+    """Rebuild a :class:`State` from a GSD frame (exact for frames written by edmd).
+
+    Frames from other programs work too: the box then comes from the (single precision)
+    configuration chunk, radii from diameters (default 1), masses default to 1.
+    ``check_overlaps=False`` accepts overlapping particles (soft-sphere frames, :mod:`edmd.run.dem`).
+    """
+    d = int(frame.configuration.dimensions or 3)
+    n = int(frame.particles.N)
+    if n == 0:
+        raise StateError("the GSD frame holds no particles")
+    log = frame.log
+    box = np.asarray(log.get("configuration/box", np.asarray(frame.configuration.box[:d], np.float64)), np.float64)
+    pos = np.asarray(frame.particles.position, np.float64)[:, :d]
+    vel = frame.particles.velocity
+    vel = np.zeros((n, d)) if vel is None else np.asarray(vel, np.float64)[:, :d]
+    if "particles/radius" in log:
+        radius = np.asarray(log["particles/radius"], np.float64)
+    else:
+        diam = frame.particles.diameter
+        radius = 0.5 * (np.ones(n) if diam is None else np.asarray(diam, np.float64))
+    mass = frame.particles.mass
+    mass = np.ones(n) if mass is None else np.asarray(mass, np.float64)
+    inertia = frame.particles.moment_inertia
+    if inertia is not None and np.any(np.asarray(inertia) > 0):
+        inertia = np.asarray(inertia, np.float64)[:, 2 if d == 2 else 0]
+    else:
+        inertia = None
+    image = frame.particles.image
+    image = np.zeros((n, d), np.int64) if image is None else np.asarray(image, np.int64)[:, :d]
+    spin = log.get("particles/angular_velocity")
+    if spin is None and inertia is not None:
+        spin = _spin_from_angmom(frame, inertia, d)
+    periodic = log.get("configuration/periodic")
+    last = log.get("particles/last_collision")
+    time = float(log["time"][0]) if "time" in log else 0.0
+    return State(
+        position=pos,
+        velocity=vel,
+        radius=radius,
+        mass=mass,
+        box=box,
+        time=time,
+        angular_velocity=None if spin is None else np.asarray(spin, np.float64),
+        inertia=inertia,
+        image=image,
+        periodic=None if periodic is None else np.asarray(periodic, bool),
+        last_collision=None if last is None else np.asarray(last, np.float64),
+        pending_velocity=log.get("particles/pending_velocity"),
+        pending_until=log.get("particles/pending_until"),
+        pending_partner=log.get("particles/pending_partner"),
+        check_overlaps=check_overlaps,
+    )
+
+
+def _spin_from_angmom(frame: gsd.hoomd.Frame, inertia: np.ndarray, d: int) -> np.ndarray | None:
+    """Angular velocities from HOOMD angular momenta (frames of other programs, identity orientations)."""
+    p = frame.particles.angmom
+    q = frame.particles.orientation
+    if p is None or not np.any(p):
+        return None
+    if q is not None and not np.allclose(q, [1.0, 0.0, 0.0, 0.0]):
+        raise StateError("the GSD frame has non-identity orientations: cannot convert angmom to angular velocities")
+    p = np.asarray(p, np.float64)
+    return p[:, 1:] / (2.0 * inertia[:, None]) if d == 3 else p[:, 3] / (2.0 * inertia)
+
+
+def _open_error(path, exc: Exception) -> StateError:
+    return exc if isinstance(exc, StateError) else StateError(f"cannot read a state from {path}: {exc}")
+
+
+def frame_count(path: str | os.PathLike) -> int:
+    """Number of frames in a GSD file (0 if it does not exist)."""
+    if not os.path.exists(path):
+        return 0
+    try:
+        with gsd.hoomd.open(str(path), "r") as traj:
+            return len(traj)
+    except (OSError, RuntimeError, ValueError) as exc:
+        raise _open_error(path, exc) from exc
+
+
+def iter_states(path: str | os.PathLike, start: int = 0, stop: int | None = None, step: int = 1, check_overlaps: bool = True) -> Iterator[State]:
+    """The States of frames ``start:stop:step`` of a GSD file, one at a time.
+
+    ``check_overlaps=False`` reads frames of soft particles in contact (:mod:`edmd.run.dem`).
+
+    Example:
+        >>> import edmd, tempfile, os
+        >>> sim = edmd.Simulation(edmd.maxwell_boltzmann(edmd.lattice(32, 0.2), 1.0))
+        >>> p = os.path.join(tempfile.mkdtemp(), "t.gsd")
+        >>> _ = sim.add(Trajectory(p, interval=0.5)); sim.run(until_time=1.0); sim.close()
+        >>> [s.time for s in iter_states(p)]
+        [0.0, 0.5, 1.0]
+    """
+    try:
+        with gsd.hoomd.open(str(path), "r") as traj:
+            for k in range(*slice(start, stop, step).indices(len(traj))):
+                yield frame_to_state(traj[k], check_overlaps)
+    except (OSError, RuntimeError, ValueError, KeyError) as exc:
+        raise _open_error(path, exc) from exc
+
+
+def truncate_frames(path: str | os.PathLike, frames: int):
+    """Keep only the first ``frames`` frames of a GSD file (rewritten atomically).
+
+    Used on restart: frames written after the checkpoint by the interrupted run are dropped. The
+    frames are written again as :class:`Trajectory` wrote them, so the file is byte for byte the
+    one a run that stopped after ``frames`` frames leaves.
+    """
+    have = frame_count(path)
+    if have < frames:
+        raise StateError(f"{path} has {have} frames, fewer than the {frames} the checkpoint expects")
+    # rewritten even when no frame is dropped: a run killed while writing a frame leaves its
+    # partial data after the last complete frame, which appending would keep
+    with atomic_path(path) as tmp:
+        with gsd.hoomd.open(str(path), "r") as src, gsd.hoomd.open(str(tmp), "w", precision="double") as dst:
+            for k in range(frames):
+                _append(dst, src[k])
+
+
+def _append(traj: gsd.hoomd.HOOMDTrajectory, frame: gsd.hoomd.Frame):
+    """Append one frame and flush it: how :class:`Trajectory` writes, so that replaying its
+    frames (:func:`truncate_frames`) gives the same bytes."""
+    traj.append(frame)
+    traj.flush()
+
+
+def read_state(path: str | os.PathLike, frame: int = -1, check_overlaps: bool = True) -> State:
+    """The :class:`State` stored in frame ``frame`` of a GSD file (default: the last).
+
+    ``check_overlaps=False`` reads frames of soft particles in contact (:mod:`edmd.run.dem`).
+
+    Example:
+        >>> import edmd, tempfile, os
+        >>> s = edmd.maxwell_boltzmann(edmd.lattice(32, 0.2), 1.0)
+        >>> p = os.path.join(tempfile.mkdtemp(), "s.gsd")
+        >>> write_state(p, s)
+        >>> bool(np.array_equal(read_state(p).velocity, s.velocity))
+        True
+    """
+    try:
+        with gsd.hoomd.open(str(path), "r") as traj:
+            if len(traj) == 0:
+                raise StateError(f"{path} holds no frames")
+            if not -len(traj) <= frame < len(traj):
+                raise StateError(f"{path} has {len(traj)} frames, there is no frame {frame}")
+            return frame_to_state(traj[frame], check_overlaps)
+    except (OSError, RuntimeError, ValueError, KeyError) as exc:
+        raise _open_error(path, exc) from exc
+
+
+def write_state(path: str | os.PathLike, state: State, totals: Totals | None = None):
+    """Write ``state`` as the only frame of a new GSD file."""
+    with gsd.hoomd.open(str(path), "w", precision="double") as traj:
+        traj.append(state_to_frame(state, totals))
+
+
+#: the log entry holding the identity of the run that wrote a trajectory
+RUN_ID = "edmd/run_id"
+
+
+def trajectory_run_id(path: str | os.PathLike) -> str | None:
+    """The run identity stored in frame 0 of a trajectory (``None`` if it has none or no frames).
+
+    Example:
+        >>> import edmd, tempfile, os
+        >>> p = os.path.join(tempfile.mkdtemp(), "t.gsd")
+        >>> sim = edmd.Simulation(edmd.maxwell_boltzmann(edmd.lattice(32, 0.2), 1.0))
+        >>> _ = sim.add(Trajectory(p, 1.0, run_id="abc123"))
+        >>> sim.run(until_time=1.0); sim.close()
+        >>> trajectory_run_id(p)
+        'abc123'
+    """
+    try:
+        with gsd.fl.open(str(path), "r") as f:
+            if f.nframes == 0 or not f.chunk_exists(0, "log/" + RUN_ID):
+                return None
+            return bytes(f.read_chunk(0, "log/" + RUN_ID)).decode()
+    except (OSError, RuntimeError, ValueError, UnicodeDecodeError) as exc:
+        raise _open_error(path, exc) from exc
+
+
+class Trajectory(Observer):
+    """Append a GSD frame (double precision) at every interval.
+
+    The file is opened at the first frame (mode ``"w"`` truncates, ``"a"`` appends). In a
+    checkpoint it records how many frames the file holds; on restart the file is cut back to
+    that many (frames written after the checkpoint by an interrupted run are dropped).
+    ``run_id``, if given, is stored in every frame as ``log/edmd/run_id`` (see
+    :func:`trajectory_run_id`): ``edmd run`` marks its files with the run's identity. Frames
+    appended to a file whose frames have no run id get none either (GSD needs a log entry in
+    every frame or in none).
+
+    Example:
+        >>> import edmd, tempfile, os, gsd.hoomd
+        >>> sim = edmd.Simulation(edmd.maxwell_boltzmann(edmd.lattice(64, 0.2), 1.0))
+        >>> p = os.path.join(tempfile.mkdtemp(), "traj.gsd")
+        >>> _ = sim.add(Trajectory(p, interval=0.5))
+        >>> sim.run(until_time=1.0); sim.close()
+        >>> len(gsd.hoomd.open(p))
+        3
+    """
+
+    def __init__(self, path: str | os.PathLike, interval: float, start: float | None = None, mode: str = "w", run_id: str | None = None):
+        if mode not in ("w", "a"):
+            raise ValueError(f"mode must be 'w' or 'a', got {mode!r}")
+        super().__init__(interval, start)
+        self.path = str(path)
+        self.mode = mode
+        self.run_id = run_id
+        self._file = None
+
+    @property
+    def frames(self) -> int:
+        """Frames in the file (those of an appended-to file included)."""
+        if self._file is not None:
+            return len(self._file)
+        return frame_count(self.path) if self.mode == "a" else 0
+
+    def observe(self, sim: Simulation, state: State, totals: Totals):
+        if self._file is None:
+            if self.mode == "a" and self.run_id is not None and frame_count(self.path) and trajectory_run_id(self.path) is None:
+                # frames without a run id (an older edmd): GSD reads a log entry missing from a
+                # frame from frame 0, so new entries in later frames would make the old ones unreadable
+                self.run_id = None
+            self._file = gsd.hoomd.open(self.path, self.mode, precision="double")
+        frame = state_to_frame(state, totals, pending=sim.soft_contacts)
+        if self.run_id is not None:
+            frame.log[RUN_ID] = np.frombuffer(self.run_id.encode(), np.uint8)
+        _append(self._file, frame)
+
+    def checkpoint_data(self) -> dict:
+        return {**super().checkpoint_data(), "frames": self.frames}
+
+    def restore_data(self, data: dict):
+        super().restore_data(data)
+        self.close()
+        truncate_frames(self.path, int(data["frames"]))
+        self.mode = "a"
+
+    def close(self):
+        if self._file is not None:
+            self._file.close()
+            self._file = None

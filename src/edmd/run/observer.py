@@ -1,0 +1,142 @@
+"""What observers see and how they are scheduled: :class:`Observer`, :class:`Callback` and the
+cumulative :class:`Totals` of a run.
+
+Observers read the system through the public, named quantities of a
+:class:`~edmd.run.simulation.Simulation` (``state``, ``totals()``, ``gravity``, ``elastic_energy``,
+``emd_counters()``, ...), never through its engine.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..state import State
+
+if TYPE_CHECKING:
+    from .simulation import Simulation
+
+
+@dataclasses.dataclass(eq=False)
+class Totals:
+    """Cumulative counters and integrals of a simulation since its start (monotonic).
+
+    Attributes:
+        time: simulation time.
+        events: events processed (collisions, crossings, rebuilds, stale predictions).
+        collisions: binary collisions.
+        virial: :math:`\\sum_{\\rm coll} \\mathbf r_{ij}\\cdot\\mathbf J` (physics.md §5.3).
+        kinetic_integral: :math:`\\int E_{\\rm kin}\\,dt`.
+        dissipated: kinetic (translational + rotational) energy lost in collisions.
+        wall_impulse: ``(d, 2)`` normal momentum taken by the lower and upper wall of each axis.
+        wall_collisions: particle-wall collisions.
+        energy_input: mechanical energy put in by updaters (:mod:`edmd.run.updaters`).
+    """
+
+    time: float
+    events: int
+    collisions: int
+    virial: float
+    kinetic_integral: float
+    dissipated: float
+    wall_impulse: np.ndarray
+    wall_collisions: int
+    energy_input: float = 0.0
+
+    def __eq__(self, other):
+        return isinstance(other, Totals) and self.to_dict() == other.to_dict()
+
+    def to_dict(self) -> dict:
+        """JSON-ready (exact: floats survive JSON's repr round trip)."""
+        out = dataclasses.asdict(self)
+        out["wall_impulse"] = self.wall_impulse.tolist()
+        return out
+
+    @classmethod
+    def from_dict(cls, data: dict) -> Totals:
+        data = dict(data)
+        data["wall_impulse"] = np.asarray(data["wall_impulse"], np.float64).reshape(-1, 2)
+        return cls(**data)
+
+
+class Observer:
+    """Something that looks at the system at exact, equally spaced simulation times.
+
+    Subclasses implement :meth:`observe`; ``interval`` is the spacing, ``start`` the first time
+    (the simulation's time when attached, by default). Firing times are ``start + k*interval``
+    computed by multiplication, so they never drift. Observers due at the same time fire in
+    order of ``priority`` (then in the order they were added); checkpoints fire last.
+    Observers that hold more than their schedule extend :meth:`checkpoint_data` and
+    :meth:`restore_data` so that a restarted run continues them exactly.
+    """
+
+    priority = 0
+    #: whether :meth:`fire` may change the state (updaters, :mod:`edmd.run.updaters`)
+    changes_state = False
+
+    def __init__(self, interval: float, start: float | None = None):
+        if not interval > 0 or not math.isfinite(interval):
+            raise ValueError(f"observer interval must be a positive number, got {interval}")
+        self.interval = float(interval)
+        self.start = start
+        self._k = 0
+
+    def attach(self, sim: Simulation):
+        if self.start is None:
+            self.start = sim.time
+        self._k = max(0, math.ceil((sim.time - self.start) / self.interval - 1e-9))
+
+    @property
+    def next_time(self) -> float:
+        return self.start + self._k * self.interval
+
+    @property
+    def last_time(self) -> float | None:
+        """The time this observer last fired on its schedule (``None`` before the first firing)."""
+        return None if self._k == 0 else self.start + (self._k - 1) * self.interval
+
+    def checkpoint_data(self) -> dict:
+        """Everything needed to continue this observer exactly: JSON values or numpy arrays."""
+        return {"start": self.start, "interval": self.interval, "k": self._k}
+
+    def restore_data(self, data: dict):
+        """Continue from :meth:`checkpoint_data` (called after :meth:`attach`)."""
+        if data["interval"] != self.interval:
+            raise ValueError(f"interval {self.interval!r} differs from the checkpoint's {data['interval']!r}")
+        self.start = data["start"]
+        self._k = int(data["k"])
+
+    def fire(self, sim: Simulation, state: State, totals: Totals):
+        self.observe(sim, state, totals)
+        self._k += 1
+
+    def observe(self, sim: Simulation, state: State, totals: Totals):  # pragma: no cover - interface
+        raise NotImplementedError
+
+    def close(self):
+        """Flush and release resources (files)."""
+
+
+class Callback(Observer):
+    """Observer that calls ``fn(state, totals)`` at every firing.
+
+    Example:
+        >>> import edmd
+        >>> sim = edmd.Simulation(edmd.maxwell_boltzmann(edmd.lattice(108, 0.2), 1.0))
+        >>> times = []
+        >>> _ = sim.add(Callback(lambda s, tot: times.append(s.time), interval=0.5))
+        >>> sim.run(until_time=1.0)
+        >>> times
+        [0.0, 0.5, 1.0]
+    """
+
+    def __init__(self, fn: Callable[[State, Totals], None], interval: float, start: float | None = None):
+        super().__init__(interval, start)
+        self.fn = fn
+
+    def observe(self, sim, state, totals):
+        self.fn(state, totals)
