@@ -180,3 +180,22 @@ def test_run_says_when_it_compiles_its_loop(tmp_path, monkeypatch):
     import logging  # the notice handler is gone with the command (the CLI may run inside a program)
 
     assert not logging.getLogger("edmd.compile").handlers
+
+
+def test_steady_prints_blocked_averages_and_writes_a_profile(tmp_path):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(
+        "[system]\ndim = 2\nn = 400\npacking_fraction = 0.1\nkT = 0.3\n[collision]\nrule = \"inelastic\"\ne_n = 0.8\n"
+        "[forcing]\nkind = \"white_noise\"\nxi0 = 0.5\ninterval = 0.05\n[run]\nuntil_time = 40.0\noutput_interval = 0.5\nprogress = false\n"
+    )
+    run = tmp_path / "run"
+    assert runner.invoke(app, ["run", str(cfg), "--out", str(run)]).exit_code == 0
+    r = runner.invoke(app, ["steady", str(run), "--settle", "10", "--profile", "y", "--bins", "4"])
+    assert r.exit_code == 0, r.output
+    assert "temperature" in r.output and "pressure" in r.output and "profile_y.csv" in r.output
+    rows = (run / "profile_y.csv").read_text().splitlines()
+    assert rows[0] == "y,density,temperature,velocity_x,velocity_y" and len(rows) == 5
+    r = runner.invoke(app, ["steady", str(run), "-c", "kinetic"])
+    assert r.exit_code == 2 and "no column 'kinetic'" in r.output
+    r = runner.invoke(app, ["steady", str(run), "--settle", "39"])
+    assert r.exit_code == 2 and "the error estimate needs at least 32" in r.output

@@ -16,6 +16,7 @@ Example:
 from ._common import compressibility_factor, contact_value, maxwell_speed_pdf
 from .collisions import CollisionStatistics, impact_angle_pdf, impact_speed_pdf
 from .dynamics import MSD, msd_window
+from .steady import Profile, SteadyState, blocking_errors
 from .structure import RDF, pair_histogram
 from .thermal import AlgebraicCooling, HaffLaw, Pressure, Temperature, VelocityDistribution, sonine_a2
 
@@ -26,9 +27,12 @@ __all__ = [
     "CollisionStatistics",
     "HaffLaw",
     "Pressure",
+    "Profile",
+    "SteadyState",
     "Temperature",
     "VelocityDistribution",
     "compressibility_factor",
+    "blocking_errors",
     "contact_value",
     "impact_angle_pdf",
     "impact_speed_pdf",

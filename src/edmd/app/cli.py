@@ -8,6 +8,7 @@ import logging
 import warnings
 from pathlib import Path
 
+import numpy as np
 import typer
 from rich.console import Console
 from rich.markup import escape
@@ -129,6 +130,40 @@ def plot(
         _fail(str(exc))
     for f in files:
         console.print(f"wrote {f}")
+
+
+@app.command()
+def steady(
+    run_dir: Path = typer.Argument(Path("edmd-run"), help="A run directory written by `edmd run`."),
+    settle: float = typer.Option(0.0, "--settle", help="Ignore the approach: rows and frames before this time."),
+    columns: list[str] = typer.Option(["temperature", "pressure"], "--column", "-c", help="thermo.csv columns to average (repeat the option)."),
+    profile: str = typer.Option(None, "--profile", help="Also write density, temperature and velocity profiles along this axis (x, y or z) from the trajectory."),
+    bins: int = typer.Option(20, "--bins", min=1, help="Bins of the profile."),
+):
+    """Steady-state averages with blocking error bars (thermo.csv), and profiles along an axis."""
+    from ..analysis.steady import Profile, SteadyState
+    from ..files.atomic import write_atomic
+    from ..files.trajectory import iter_states
+
+    try:
+        table = Table(title=f"steady state of {run_dir} (t >= {settle:g})")
+        for name in ("column", "mean", "error", "samples", "converged"):
+            table.add_column(name)
+        for column in columns:
+            s = SteadyState(settle=settle).compute(run_dir / "thermo.csv", column)
+            table.add_row(column, f"{s.mean:.6g}", f"{s.error:.2g}", str(s.samples), "yes" if s.converged else "no: longer run")
+        console.print(table)
+        if profile is not None:
+            frames = (st for st in iter_states(run_dir / "trajectory.gsd", check_overlaps=False) if st.time >= settle)
+            p = Profile(profile, bins=bins).compute(frames)
+            dim = p.velocity.shape[1]
+            head = ",".join([profile, "density", "temperature", *(f"velocity_{a}" for a in "xyz"[:dim])])
+            rows = np.column_stack([p.centres, p.density, p.temperature, p.velocity])
+            out = run_dir / f"profile_{profile}.csv"
+            write_atomic(out, head + "\n" + "\n".join(",".join(repr(float(v)) for v in row) for row in rows) + "\n")
+            console.print(f"wrote {out} ({p.frames} frames)")
+    except (StateError, ValueError, OSError) as exc:
+        _fail(str(exc))
 
 
 @app.command()
