@@ -240,3 +240,32 @@ def test_forcing_config_section():
     assert sim.params["forcing"] == {"kind": "white_noise", "xi0": 0.5, "interval": 0.05, "seed": 0, "start": 0.0}
     with pytest.raises(edmd.ConfigError, match="forcing.xi0"):
         parse_config({"forcing": {"kind": "white_noise", "xi0": -1.0, "interval": 0.1}})
+
+
+def test_a_kick_fires_at_exactly_its_time():
+    """Timers are calendar events at start + k * interval: a run that stops at the tick does not kick,
+    one that stops just after it does (a toy of hook c). The engine keeps times relative to its last
+    rebuild, so "just after" is beyond the rounding of that subtraction (1e-12 here), not the next float."""
+    forcing = edmd.WhiteNoise(xi0=0.5, interval=0.3, seed=1, start=0.1)
+    sim = edmd.Simulation(_gas(3), e_n=0.9, forcing=forcing)
+    for tick in range(4):
+        t = forcing.tick_time(tick)
+        sim.run(until_time=t)
+        assert int(sim.engine.cnt[L.C_KICKS]) == tick  # the run stops before events at its end time
+        sim.run(until_time=t + 1e-12)
+        assert int(sim.engine.cnt[L.C_KICKS]) == tick + 1
+
+
+def test_the_bath_ends_a_pending_emdstar_contact_first():
+    from edmd.physics.emdstar import EMDStar
+
+    state = edmd.maxwell_boltzmann(edmd.random_packing(300, 0.2, seed=2), 1.0, seed=3)
+    rule = EMDStar(edmd.Hertz(young=1e3, poisson=0.3, A=1e-3))  # soft: long contacts, bath events land in them
+    sim = edmd.Simulation(state, collision=rule, thermostat=edmd.Andersen(kT=1.0, rate=5.0, seed=4))
+    e0 = state.kinetic_energy()
+    sim.run(until_time=3.0)
+    s, tot = sim.state, sim.totals()
+    counters = sim.emd_counters()
+    assert counters["emd_contacts"] > 100 and counters["emd_exceptions_b"] > 0 and int(sim.engine.cnt[L.C_BATH]) > 1000
+    # committed velocities (pending increments included) balance the books
+    assert abs(tot.energy_input - tot.dissipated - (s.kinetic_energy() - e0)) < 1e-8 * tot.energy_input
