@@ -58,11 +58,7 @@ class Andersen:
     seed: int = 0
 
     def __post_init__(self):
-        for name in ("kT", "rate"):
-            value = getattr(self, name)
-            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
-                raise ValueError(f"Andersen {name} must be a positive number, got {value!r}")
-        _check_seed("Andersen", self.seed)
+        _check_parameters(self, ("kT", "rate"))
 
     def pack(self, fp: np.ndarray, ip: np.ndarray):
         """Write the bath's parameters into the core's parameter arrays."""
@@ -111,13 +107,9 @@ class WhiteNoise:
     start: float = 0.0
 
     def __post_init__(self):
-        for name in ("xi0", "interval"):
-            value = getattr(self, name)
-            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
-                raise ValueError(f"WhiteNoise {name} must be a positive number, got {value!r}")
+        _check_parameters(self, ("xi0", "interval"))
         if not (isinstance(self.start, int | float) and math.isfinite(self.start)):
             raise ValueError(f"WhiteNoise start must be a finite time, got {self.start!r}")
-        _check_seed("WhiteNoise", self.seed)
 
     def tick_time(self, tick: int) -> float:
         """Absolute time of kick ``tick`` (by multiplication: it never drifts)."""
@@ -145,7 +137,14 @@ class WhiteNoise:
         return {"kind": "white_noise", **dataclasses.asdict(self)}
 
 
-def _check_seed(owner: str, seed):
+def _check_parameters(driver, positive: tuple[str, ...]):
+    """The named fields of ``driver`` are positive numbers and its seed fits the generator's key."""
+    owner = type(driver).__name__
+    for name in positive:
+        value = getattr(driver, name)
+        if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+            raise ValueError(f"{owner} {name} must be a positive number, got {value!r}")
+    seed = driver.seed
     if not (isinstance(seed, int | np.integer) and not isinstance(seed, bool) and 0 <= seed < 2**63):
         raise ValueError(f"{owner} seed must be an integer in [0, 2**63), got {seed!r}")
 
