@@ -39,3 +39,31 @@ def test_only_the_stale_modules_lose_their_cache(tmp_path):
     guard_cache(tmp_path)
     left = sorted({p.name.split(".")[0] for p in cache.glob("*.nb[ic]")})
     assert left == ["predict", "queue"]
+
+
+def test_every_cache_folder_is_cleaned(tmp_path):
+    # NUMBA_CACHE_DIR (clusters, CI) or the user-wide folder hold the cache instead of __pycache__
+    in_tree = _package(tmp_path, SOURCES)
+    elsewhere = tmp_path / "numba-cache"
+    elsewhere.mkdir()
+    for name in SOURCES:
+        (elsewhere / f"{name}.f-1.py311.nbi").write_text("index")
+    folders = [in_tree, elsewhere, tmp_path / "never-used"]
+    guard_cache(tmp_path, folders)
+    assert not list(elsewhere.glob("*.nbi")) and not (tmp_path / "never-used").exists()
+    for name in SOURCES:
+        (elsewhere / f"{name}.f-1.py311.nbi").write_text("index")
+    (tmp_path / "queue.py").write_text("top = 2\n")
+    guard_cache(tmp_path, folders)
+    assert sorted(p.name.split(".")[0] for p in elsewhere.glob("*.nbi")) == ["collide", "predict"]
+
+
+def test_the_cache_folders_follow_numba(monkeypatch, tmp_path):
+    from numba.core import config
+
+    from edmd._core import cache_folders
+
+    monkeypatch.setattr(config, "CACHE_DIR", str(tmp_path))
+    folders = cache_folders(tmp_path / "pkg")
+    assert folders[0] == tmp_path / "pkg" / "__pycache__"
+    assert any(f.parent == tmp_path and f.name.startswith("pkg_") for f in folders)

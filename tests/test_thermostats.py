@@ -269,3 +269,28 @@ def test_the_bath_ends_a_pending_emdstar_contact_first():
     assert counters["emd_contacts"] > 100 and counters["emd_exceptions_b"] > 0 and int(sim.engine.cnt[L.C_BATH]) > 1000
     # committed velocities (pending increments included) balance the books
     assert abs(tot.energy_input - tot.dissipated - (s.kinetic_energy() - e0)) < 1e-8 * tot.energy_input
+
+
+def test_a_rebuild_right_after_a_kick_does_not_repeat_it():
+    """The engine's maintenance resyncs (and checkpoints after max_events runs) rebuild at the time of
+    the last event; when that was a kick, the rebuilt timer must point at the next one."""
+    forcing = edmd.WhiteNoise(xi0=0.5, interval=0.3, seed=1, start=0.1)
+    sim = edmd.Simulation(_gas(3), e_n=0.9, forcing=forcing)
+    sim.run(until_time=0.4 + 1e-12)  # the kick at 0.4 is the last event (none else within 1e-12)
+    assert int(sim.engine.cnt[L.C_KICKS]) == 2 and sim.engine.now == pytest.approx(0.4, abs=1e-12)
+    energy = sim.totals().energy_input
+    sim.engine.resync()  # at the last event: the kick's time
+    sim.run(until_time=0.4 + 2e-12)
+    assert int(sim.engine.cnt[L.C_KICKS]) == 2 and sim.totals().energy_input == energy
+    sim.run(until_time=0.7 + 1e-9)
+    assert int(sim.engine.cnt[L.C_KICKS]) == 3
+
+
+def test_the_bath_thermalises_spins_when_only_the_walls_are_rough():
+    state = edmd.maxwell_boltzmann(edmd.lattice(256, 0.1, periodic=[True, True, False]), 1.0, seed=1)
+    sim = edmd.Simulation(state, walls=edmd.collide.Wall(e_n=1.0, beta=0.5), thermostat=edmd.Andersen(kT=1.0, rate=2.0, seed=2))
+    sim.run(until_time=10.0)
+    spins = sim.state.angular_velocity
+    inertia = sim.state.inertia
+    # every particle met the bath ~20 times: the rotational temperature is the bath's
+    assert np.mean(inertia[:, None] * spins**2) == pytest.approx(1.0, rel=0.15)

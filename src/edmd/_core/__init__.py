@@ -5,8 +5,9 @@ function carries the code of the helpers it inlines or calls from other modules:
 ``collide.py`` alone would leave a stale compiled ``run_events`` behind. Before anything is
 compiled, this package therefore fingerprints each module together with every core module it
 imports (directly or not) and clears the cache files of exactly the modules whose fingerprint
-changed: an edit to ``collide.py`` recompiles the collision rules and the loop, not the queue,
-the cells or the two-body solver.
+changed, in every folder Numba may cache them in (next to the sources, ``NUMBA_CACHE_DIR``, the
+user-wide folder): an edit to ``collide.py`` recompiles the collision rules and the loop, not the
+queue, the cells or the two-body solver.
 """
 
 import ast
@@ -51,26 +52,53 @@ def fingerprints(sources: dict[str, str]) -> dict[str, str]:
     return prints
 
 
-def guard_cache(package: Path):
-    """Delete the Numba cache files (``__pycache__/<module>.*.nb[ic]``) of the modules of
-    ``package`` whose fingerprint (:func:`fingerprints`) changed since the last call."""
+def cache_folders(package: Path) -> list[Path]:
+    """The folders Numba may keep this package's cache in: ``__pycache__`` next to the sources,
+    ``NUMBA_CACHE_DIR``'s folder for them when that is set, and the user-wide cache folder
+    (read-only installs). The last two follow Numba's own locators."""
+    folders = [package / "__pycache__"]
+    try:
+        from numba.core import caching, config
+
+        source = str(package / "loop.py")
+        if config.CACHE_DIR:
+            folders.append(Path(config.CACHE_DIR) / caching.UserProvidedCacheLocator.get_suitable_cache_subpath(source))
+        from numba.misc.appdirs import AppDirs
+
+        user = Path(AppDirs(appname="numba", appauthor=False).user_cache_dir)
+        folders.append(user / caching.UserWideCacheLocator.get_suitable_cache_subpath(source))
+    except (ImportError, AttributeError):  # pragma: no cover - depends on Numba's private layout
+        pass
+    return folders
+
+
+def guard_cache(package: Path, folders: list[Path] | None = None):
+    """Delete the Numba cache files (``<module>.*.nb[ic]``) of the modules of ``package`` whose
+    fingerprint (:func:`fingerprints`) changed since the last call, in every cache folder."""
     sources = {src.stem: src.read_text() for src in sorted(package.glob("*.py"))}
     now = fingerprints(sources)
-    stamp = package / "__pycache__" / _STAMP
+    for folder in cache_folders(package) if folders is None else folders:
+        _clean(folder, now)
+
+
+def _clean(folder: Path, now: dict[str, str]):
+    stamp = folder / _STAMP
     try:
-        try:
-            before = json.loads(stamp.read_text())
-        except (OSError, ValueError):
-            before = {}
-        if before == now:
-            return
-        stamp.parent.mkdir(exist_ok=True)
+        before = json.loads(stamp.read_text())
+    except (OSError, ValueError):
+        before = {}
+    if before == now:
+        return
+    try:
+        if not folder.is_dir() and folder.name != "__pycache__":
+            return  # Numba has not used this folder (yet): nothing stale in it
+        folder.mkdir(exist_ok=True)
         for name, digest in now.items():
             if before.get(name) != digest:
-                for stale in stamp.parent.glob(f"{name}.*.nb[ic]"):
+                for stale in folder.glob(f"{name}.*.nb[ic]"):
                     stale.unlink(missing_ok=True)
         stamp.write_text(json.dumps(now, indent=0, sort_keys=True))
-    except OSError:  # read-only install: Numba then uses its own cache directory, keyed the same way
+    except OSError:  # a folder we cannot write: Numba cannot cache there either
         pass
 
 

@@ -13,9 +13,13 @@ At a kick, every particle is streamed to :math:`t_j` and its velocity changes by
     \Delta\mathbf v_i = \xi_0\sqrt{\Delta t}\,\Big(\mathbf g_i - \frac{\sum_k m_k\mathbf g_k}{\sum_k m_k}\Big),
     \qquad \mathbf g_i \sim \mathcal N(0, \mathbb 1),
 
-so each component has variance :math:`\xi_0^2\Delta t\,(1 - m_i/M)` and the total momentum does not
-change (the mass-weighted mean kick is removed). The random numbers are keyed by (seed, tick,
-particle) (:mod:`.rng`): the kicks do not depend on resyncs or checkpoints at all.
+so each component has variance :math:`\xi_0^2\Delta t\,(1 - 2m_i/M + \sum_k m_k^2/M^2)`
+(:math:`1 - 1/N` for equal masses) and the total momentum does not change (the mass-weighted
+mean kick is removed). The random numbers are keyed by (seed, tick, particle in the engine's
+internal order) (:mod:`.rng`); the internal order is rebuilt at the same points of a run and of
+its restart from a checkpoint, so restarts continue bit for bit. The engine carries the index of
+the next tick across rebuilds (``cnt[C_KICK_NEXT]``): a rebuild at the very time of a kick must
+not repeat it.
 """
 
 import math

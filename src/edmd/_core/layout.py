@@ -68,10 +68,11 @@ COUNTERS = (
     "emd_fallbacks",  # eMD*: contacts resolved by the instantaneous rule (exception a, overlapping pairs)
     "bath_events",  # Andersen heat bath: velocities drawn anew
     "kicks",  # white-noise forcing: kicks of the whole system
+    "kick_next",  # index of the next kick (carried across reloads: a reload at a kick's time must not repeat it)
 )
 (
     C_EVENTS, C_COLL, C_STALE, C_AUX, C_REBUILD, C_WALL, C_LOG, C_ZENO_RUN, C_BAD_I, C_BAD_J,
-    C_TC_ELASTIC, C_EMD_A, C_EMD_EXC_A, C_EMD_EXC_B, C_EMD_FALLBACK, C_BATH, C_KICKS,
+    C_TC_ELASTIC, C_EMD_A, C_EMD_EXC_A, C_EMD_EXC_B, C_EMD_FALLBACK, C_BATH, C_KICKS, C_KICK_NEXT,
 ) = range(len(COUNTERS))  # fmt: skip
 N_COUNTERS = len(COUNTERS)
 

@@ -210,6 +210,7 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on):
                 integrate_kinetic(acc, t, geo, total_mass)
                 white_noise_kick(t, P, mass, count, drive, fp, acc, geo)
                 cnt[L.C_KICKS] += 1
+                cnt[L.C_KICK_NEXT] = drive.tick[L.TIMER_KICK]
                 for p in range(n):  # called, not inlined: no predictor copy for a rare global event
                     repredict(np.int64(p), t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb, bath_t)
                 queue_update(q, i, drive.timer_t[L.TIMER_KICK])
@@ -242,7 +243,7 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on):
                         finish_contact(i, i, -1, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd, bath_t)
                     advance(P, i, t, geo)
                     integrate_kinetic(acc, t, geo, total_mass)
-                    bath_event(i, t, P, mass, omega, inertia, count, drive, fp, acc, rough)
+                    bath_event(i, t, P, mass, omega, inertia, count, drive, fp, acc, rough or ip[L.IP_WALL_TANGENT] != TANGENT_SMOOTH)
                     count[i] += 1
                     cnt[L.C_BATH] += 1
                 elif kind == L.AUX_SHELL:  # the particle left the shell of its neighbour list

@@ -87,7 +87,8 @@ class SteadyState:
         return self.compute_series(table["time"], table[column])
 
     def compute_series(self, time, values) -> SteadyState:
-        """From equally spaced samples ``values`` at times ``time``."""
+        """From equally spaced samples ``values`` at times ``time`` (non-finite ones, such as the
+        first thermo row's pressure, are skipped)."""
         time, values = np.asarray(time, float), np.asarray(values, float)
         keep = (time >= self.settle) & np.isfinite(values)
         x = values[keep]

@@ -214,6 +214,8 @@ class Engine:
             bath_schedule(drive, self.fp[L.FP_BATH_RATE])
         if self.forcing is not None:
             tick = self.forcing.first_tick(self.t_origin)
+            if int(self.cnt[L.C_KICK_NEXT]) == tick + 1:  # a reload at the time of the kick just done
+                tick += 1
             drive.tick[L.TIMER_KICK] = tick
             drive.timer_t[L.TIMER_KICK] = self.forcing.tick_time(tick) - self.t_origin
         return drive
