@@ -223,12 +223,26 @@ progress = false
 trajectory_interval = 0.2
 checkpoint_interval = {ck}
 plots = false
+{extra}"""
+
+#: every driver on: the Andersen bath (per-particle events) and white-noise kicks (a global timer)
+DRIVERS = """
+[thermostat]
+kind = "andersen"
+kT = 1.0
+rate = 0.5
+seed = 3
+[forcing]
+kind = "white_noise"
+xi0 = 0.5
+interval = 0.03
+seed = 4
 """
 
 
-def _config(tmp_path, dim, until, ck=0.2):
+def _config(tmp_path, dim, until, ck=0.2, extra=""):
     p = tmp_path / f"c{until}.toml"
-    p.write_text(CONFIG.format(dim=dim, until=until, ck=ck))
+    p.write_text(CONFIG.format(dim=dim, until=until, ck=ck, extra=extra))
     return p
 
 
@@ -254,18 +268,19 @@ def test_cli_restart_errors_are_clean(tmp_path):
     assert r.exit_code == 2 and "not a readable checkpoint" in r.output and "Traceback" not in r.output
 
 
-def test_kill_9_mid_run_then_restart_is_bit_for_bit(tmp_path):
+@pytest.mark.parametrize("extra", ["", DRIVERS], ids=["plain", "bath+kicks"])
+def test_kill_9_mid_run_then_restart_is_bit_for_bit(tmp_path, extra):
     """A child process runs "forever"; it is killed with SIGKILL after some checkpoints, then continued."""
     dim, t_end = 3, 3.0
     runner = CliRunner()
     # checkpoints every other frame: the kill often leaves frames past the last checkpoint,
     # which the restart cuts off and writes again (byte for byte)
-    r = runner.invoke(app, ["run", str(_config(tmp_path, dim, t_end, ck=0.4)), "--out", str(tmp_path / "ref")])
+    r = runner.invoke(app, ["run", str(_config(tmp_path, dim, t_end, ck=0.4, extra=extra)), "--out", str(tmp_path / "ref")])
     assert r.exit_code == 0, r.output  # also compiles the core (cached) before the child starts
     out = tmp_path / "killed"
     # the child imports the same edmd as this process (installed or editable), so it finds the
     # compiled core in the same numba cache
-    cmd = [sys.executable, "-m", "edmd", "run", str(_config(tmp_path, dim, 1e6, ck=0.4)), "--out", str(out), "--no-progress"]
+    cmd = [sys.executable, "-m", "edmd", "run", str(_config(tmp_path, dim, 1e6, ck=0.4, extra=extra)), "--out", str(out), "--no-progress"]
     child = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     ck = out / "checkpoint.gsd"
     deadline = time.monotonic() + 300
