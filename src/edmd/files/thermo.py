@@ -71,9 +71,9 @@ class Thermo(Observer):
     ``wall_pressure_<axis>``: the mean normal force per area on its two walls. eMD* runs
     (:class:`edmd.physics.emdstar.EMDStar`) add the cumulative counters ``emd_contacts`` (A events),
     ``emd_exceptions_a``, ``emd_exceptions_b`` and ``emd_fallbacks`` (physics.md §4.8); their
-    energies and temperatures use committed velocities. Runs with updaters (thermostats,
-    forcing: :mod:`edmd.run.updaters`) add the cumulative ``energy_input``, which ``energy_balance``
-    subtracts. The first row has no interval (NaN).
+    energies and temperatures use committed velocities. Runs with a thermostat, forcing
+    (:mod:`edmd.physics.thermostats`) or updaters (:mod:`edmd.run.updaters`) add the cumulative
+    ``energy_input``, which ``energy_balance`` subtracts. The first row has no interval (NaN).
     An existing CSV file is appended to; its header must name the same columns (``ValueError``
     naming the file and the differing columns otherwise).
 
@@ -156,7 +156,7 @@ class Thermo(Observer):
 
     def columns(self) -> list[str]:
         """The table's columns: :data:`COLUMNS` plus one ``wall_pressure_<axis>`` per wall axis (and eMD*
-        counters, and ``energy_input`` when updaters change the system)."""
+        counters, and ``energy_input`` when a thermostat, forcing or updaters put energy in)."""
         return list(self.rows[0]) if self.rows else list(COLUMNS)
 
     def restore_data(self, data: dict):
