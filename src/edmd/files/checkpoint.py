@@ -217,12 +217,11 @@ def load_checkpoint(path: str | os.PathLike, observers=(), data: CheckpointData 
     except (TypeError, ValueError) as exc:
         raise CheckpointError(f"{path}: cannot rebuild the simulation from the saved parameters: {exc}") from None
     a = engine_arrays(data, path)
-    sim.engine.restore(data.state, a["counters"], a["accumulators"], int(data.arrays["list_capacity"][0]))
+    sim.restore(data.state, a["counters"], a["accumulators"], int(data.arrays["list_capacity"][0]))
     for name, names in (("fp", L.FPARAMS), ("ip", L.IPARAMS)):
         differ = [n for n, new, old in zip(names, getattr(sim.engine, name), a[name]) if not new == old]
         if differ:
             raise CheckpointError(f"{path}: the rebuilt engine's physics parameters differ from the saved ones ({', '.join(differ)})")
-    sim._time = data.state.time
     sim.wall_seconds = float(data.meta.get("wall_seconds", 0.0))
     _restore_observers(sim, path, data, list(observers))
     return sim

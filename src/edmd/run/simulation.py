@@ -108,6 +108,12 @@ class Simulation:
         self._engine.load(new)
         self._time = float(new.time)
 
+    def restore(self, state: State, counters, accumulators, list_capacity: int):
+        """Continue exactly as a run did right after the resync at which it saved ``state`` and its
+        engine arrays (a checkpoint, :mod:`edmd.files.checkpoint`)."""
+        self._engine.restore(state, counters, accumulators, list_capacity)
+        self._time = float(state.time)
+
     @property
     def engine(self) -> Engine:
         """The underlying event engine (counters, neighbour mode, collision log)."""
