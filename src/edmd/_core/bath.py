@@ -25,11 +25,17 @@ import math
 import numpy as np
 
 from . import layout as L
-from .jit import jit
+from .jit import jit, leaf
 from .rng import normal_pair, stream, uniform
 
 #: the ``count`` of the key of the clock draws at a load (event counters are int32, never this)
 SCHEDULE = np.uint64(1 << 40)
+
+
+@leaf
+def _waiting_time(z, rate):
+    """Exponential waiting time of rate ``rate`` from the first uniform of stream ``z``."""
+    return -math.log(1.0 - uniform(z, 0)) / rate
 
 
 @jit
@@ -37,7 +43,7 @@ def bath_schedule(drive, rate):
     """Draw every particle's first bath time after a load (local time 0)."""
     epoch, seed = drive.key[0], drive.key[1]
     for i in range(drive.bath_t.shape[0]):
-        drive.bath_t[i] = -math.log(1.0 - uniform(stream(seed, epoch, i, SCHEDULE), 0)) / rate
+        drive.bath_t[i] = _waiting_time(stream(seed, epoch, i, SCHEDULE), rate)
 
 
 @jit
@@ -68,4 +74,4 @@ def bath_event(i, t, P, mass, omega, inertia, count, drive, fp, acc, rough):
             de += 0.5 * inertia[i] * (new * new - omega[i, k] * omega[i, k])
             omega[i, k] = new
     acc[L.A_ENERGY_INPUT] += de
-    drive.bath_t[i] = t - math.log(1.0 - uniform(z, 0)) / fp[L.FP_BATH_RATE]
+    drive.bath_t[i] = t + _waiting_time(z, fp[L.FP_BATH_RATE])

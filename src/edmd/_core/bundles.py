@@ -91,7 +91,6 @@ class Drive(NamedTuple):
 
     bath_t: np.ndarray  #: (N,) local time of each particle's next bath event (inf: no bath)
     timer_t: np.ndarray  #: (N_TIMERS,) local time of each timer's next tick (inf: off)
-    tick: np.ndarray  #: (N_TIMERS,) int64 index of that tick (its time is start + tick * interval)
     origin: np.ndarray  #: (1,) the absolute time of local time 0 (tick times are absolute)
     key: np.ndarray  #: (3,) uint64: the bit pattern of the load time (the RNG epoch), bath seed, forcing seed
     axes: np.ndarray  #: (2, 3) int64: velocity (row 0) and spin (row 1) components that random draws touch

@@ -17,9 +17,9 @@ so each component has variance :math:`\xi_0^2\Delta t\,(1 - 2m_i/M + \sum_k m_k^
 (:math:`1 - 1/N` for equal masses) and the total momentum does not change (the mass-weighted
 mean kick is removed). The random numbers are keyed by (seed, tick, particle in the engine's
 internal order) (:mod:`.rng`); the internal order is rebuilt at the same points of a run and of
-its restart from a checkpoint, so restarts continue bit for bit. The engine carries the index of
-the next tick across rebuilds (``cnt[C_KICK_NEXT]``): a rebuild at the very time of a kick must
-not repeat it.
+its restart from a checkpoint, so restarts continue bit for bit. The index of the next tick is
+``cnt[C_KICK_NEXT]``, carried across rebuilds and saved in checkpoints: a rebuild at the very
+time of a kick must not repeat it.
 """
 
 import math
@@ -35,8 +35,10 @@ from .rng import normal_pair, stream
 KICK = np.uint64(1 << 41)
 
 
+@leaf
 def tick_time(start, interval, tick):
-    """Absolute time of tick ``tick`` of a timer started at ``start`` (the core computes it alike)."""
+    """Absolute time of tick ``tick`` of a timer started at ``start``: by multiplication, so it never
+    drifts (the one formula of the core and of :meth:`edmd.WhiteNoise.tick_time`)."""
     return start + tick * interval
 
 
@@ -49,11 +51,12 @@ def _kick_normals(seed, tick, p):
 
 
 @jit
-def white_noise_kick(t, P, mass, count, drive, fp, acc, geo):
+def white_noise_kick(t, P, mass, count, drive, fp, acc, cnt, geo):
     """Kick every particle at local time ``t`` (see the module doc); books the energy input and
-    schedules the next tick. The caller re-predicts every particle."""
+    schedules the next tick (its index is ``cnt[C_KICK_NEXT]``, which checkpoints save). The
+    caller re-predicts every particle."""
     n = P.shape[0]
-    seed, tick = drive.key[2], drive.tick[L.TIMER_KICK]
+    seed, tick = drive.key[2], cnt[L.C_KICK_NEXT]
     s = fp[L.FP_KICK_XI0] * math.sqrt(fp[L.FP_KICK_INTERVAL])
     mx = my = mz = total = 0.0
     for p in range(n):
@@ -77,5 +80,5 @@ def white_noise_kick(t, P, mass, count, drive, fp, acc, geo):
         count[p] += 1
     acc[L.A_KE] += de
     acc[L.A_ENERGY_INPUT] += de
-    drive.tick[L.TIMER_KICK] = tick + 1
-    drive.timer_t[L.TIMER_KICK] = (fp[L.FP_KICK_START] + (tick + 1) * fp[L.FP_KICK_INTERVAL]) - drive.origin[0]
+    cnt[L.C_KICK_NEXT] = tick + 1
+    drive.timer_t[L.TIMER_KICK] = tick_time(fp[L.FP_KICK_START], fp[L.FP_KICK_INTERVAL], tick + 1) - drive.origin[0]

@@ -29,7 +29,6 @@ from .queue import queue_top, queue_update
 from .schedule import cross_cell, predict_aux, predict_pair, repredict, requeue, wrap_into_box
 
 
-
 @hot
 def _bad_contact(p, k, t, P, geo, tol, acc, cnt, exact):
     """Record ``(p, k)`` if they overlap (or, with ``exact``, do not touch) beyond ``tol``."""
@@ -68,7 +67,6 @@ def _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf, contact
                     return False
                 nc, s, k = walk_next(grid, cbuf, nc, s, k)
     return True
-
 
 
 @hot
@@ -208,9 +206,8 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on):
             acc[L.A_NOW] = t
             if kick_on and i >= n:  # a global timer (calendar entry n + TIMER_KICK): kick everyone
                 integrate_kinetic(acc, t, geo, total_mass)
-                white_noise_kick(t, P, mass, count, drive, fp, acc, geo)
+                white_noise_kick(t, P, mass, count, drive, fp, acc, cnt, geo)
                 cnt[L.C_KICKS] += 1
-                cnt[L.C_KICK_NEXT] = drive.tick[L.TIMER_KICK]
                 for p in range(n):  # called, not inlined: no predictor copy for a rare global event
                     repredict(np.int64(p), t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb, bath_t)
                 queue_update(q, i, drive.timer_t[L.TIMER_KICK])
@@ -228,24 +225,21 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on):
                 cnt[L.C_AUX] += 1
                 if emd_on and kind == L.AUX_B:
                     execute_b(i, t, P, count, emd, geo)
-                elif walls and kind >= L.AUX_WALL and kind < L.AUX_WALL_END:
-                    if emd_on and is_pending(emd, i):  # a wall is a third body too: end the soft contact first
+                elif (walls and kind >= L.AUX_WALL and kind < L.AUX_WALL_END) or (bath_on and kind == L.AUX_BATH):
+                    # a wall or the bath changes the particle's velocity: as a third body, it ends a
+                    # pending soft contact first (the bath acts on the committed velocity)
+                    if emd_on and is_pending(emd, i):
                         cnt[L.C_EMD_EXC_B] += 1
                         finish_contact(i, i, -1, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd, bath_t)
                     advance(P, i, t, geo)
                     integrate_kinetic(acc, t, geo, total_mass)
-                    collide_wall(t, P, mass, omega, inertia, tlast, i, (kind - L.AUX_WALL) >> 1, (kind - L.AUX_WALL) & 1, fp, ip, etab, acc)
+                    if bath_on and kind == L.AUX_BATH:
+                        bath_event(i, t, P, mass, omega, inertia, count, drive, fp, acc, rough or ip[L.IP_WALL_TANGENT] != TANGENT_SMOOTH)
+                        cnt[L.C_BATH] += 1
+                    elif walls:
+                        collide_wall(t, P, mass, omega, inertia, tlast, i, (kind - L.AUX_WALL) >> 1, (kind - L.AUX_WALL) & 1, fp, ip, etab, acc)
+                        cnt[L.C_WALL] += 1
                     count[i] += 1
-                    cnt[L.C_WALL] += 1
-                elif bath_on and kind == L.AUX_BATH:
-                    if emd_on and is_pending(emd, i):  # the bath acts on the committed velocity
-                        cnt[L.C_EMD_EXC_B] += 1
-                        finish_contact(i, i, -1, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd, bath_t)
-                    advance(P, i, t, geo)
-                    integrate_kinetic(acc, t, geo, total_mass)
-                    bath_event(i, t, P, mass, omega, inertia, count, drive, fp, acc, rough or ip[L.IP_WALL_TANGENT] != TANGENT_SMOOTH)
-                    count[i] += 1
-                    cnt[L.C_BATH] += 1
                 elif kind == L.AUX_SHELL:  # the particle left the shell of its neighbour list
                     advance(P, i, t, geo)
                     wrap_into_box(P, image, i, geo)

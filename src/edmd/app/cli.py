@@ -142,7 +142,7 @@ def steady(
 ):
     """Steady-state averages with blocking error bars (thermo.csv), and profiles along an axis."""
     from ..analysis.steady import Profile, SteadyState
-    from ..files.atomic import write_atomic
+    from ..files.atomic import atomic_path
     from ..files.trajectory import iter_states
 
     try:
@@ -158,9 +158,9 @@ def steady(
             p = Profile(profile, bins=bins).compute(frames)
             dim = p.velocity.shape[1]
             head = ",".join([profile, "density", "temperature", *(f"velocity_{a}" for a in "xyz"[:dim])])
-            rows = np.column_stack([p.centres, p.density, p.temperature, p.velocity])
             out = run_dir / f"profile_{profile}.csv"
-            write_atomic(out, head + "\n" + "\n".join(",".join(repr(float(v)) for v in row) for row in rows) + "\n")
+            with atomic_path(out) as tmp:
+                np.savetxt(tmp, np.column_stack([p.centres, p.density, p.temperature, p.velocity]), fmt="%.17g", delimiter=",", header=head, comments="")
             console.print(f"wrote {out} ({p.frames} frames)")
     except (StateError, ValueError, OSError) as exc:
         _fail(str(exc))

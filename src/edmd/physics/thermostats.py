@@ -32,6 +32,7 @@ import math
 import numpy as np
 
 from .._core import layout as L
+from .._core.forcing import tick_time
 
 
 @dataclasses.dataclass(frozen=True)
@@ -112,8 +113,8 @@ class WhiteNoise:
             raise ValueError(f"WhiteNoise start must be a finite time, got {self.start!r}")
 
     def tick_time(self, tick: int) -> float:
-        """Absolute time of kick ``tick`` (by multiplication: it never drifts)."""
-        return self.start + tick * self.interval
+        """Absolute time of kick ``tick`` (by multiplication: it never drifts; the core's formula)."""
+        return float(tick_time(float(self.start), float(self.interval), int(tick)))
 
     def first_tick(self, t: float) -> int:
         """The first kick at or after time ``t``."""

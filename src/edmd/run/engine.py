@@ -209,14 +209,14 @@ class Engine:
         axes[1, 2 if self.dim == 2 else 0 :] = 1  # disks spin about z only
         epoch = np.array([self.t_origin]).view(np.uint64)[0]
         key = np.array([epoch, self.ip[L.IP_BATH_SEED], self.ip[L.IP_KICK_SEED]], np.uint64)
-        drive = Drive(np.full(self.n, np.inf), np.full(L.N_TIMERS, np.inf), np.zeros(L.N_TIMERS, np.int64), np.array([self.t_origin]), key, axes)
+        drive = Drive(np.full(self.n, np.inf), np.full(L.N_TIMERS, np.inf), np.array([self.t_origin]), key, axes)
         if self.thermostat is not None:
             bath_schedule(drive, self.fp[L.FP_BATH_RATE])
         if self.forcing is not None:
             tick = self.forcing.first_tick(self.t_origin)
             if int(self.cnt[L.C_KICK_NEXT]) == tick + 1:  # a reload at the time of the kick just done
                 tick += 1
-            drive.tick[L.TIMER_KICK] = tick
+            self.cnt[L.C_KICK_NEXT] = tick
             drive.timer_t[L.TIMER_KICK] = self.forcing.tick_time(tick) - self.t_origin
         return drive
 
