@@ -30,40 +30,39 @@ def _package(tmp_path, sources):
 
 def test_only_the_stale_modules_lose_their_cache(tmp_path):
     cache = _package(tmp_path, SOURCES)
-    guard_cache(tmp_path)  # first call: no stamp yet, every file is suspect
+    guard_cache(tmp_path, cache)  # first call: no stamp yet, every file is suspect
     assert not list(cache.glob("*.nb[ic]"))
     _package(tmp_path, SOURCES)
-    guard_cache(tmp_path)  # unchanged sources: the cache stays
+    guard_cache(tmp_path, cache)  # unchanged sources: the cache stays
     assert len(list(cache.glob("*.nb[ic]"))) == 8
     (tmp_path / "collide.py").write_text("from .predict import flight\nrule = 2\n")
-    guard_cache(tmp_path)
+    guard_cache(tmp_path, cache)
     left = sorted({p.name.split(".")[0] for p in cache.glob("*.nb[ic]")})
     assert left == ["predict", "queue"]
 
 
-def test_every_cache_folder_is_cleaned(tmp_path):
-    # NUMBA_CACHE_DIR (clusters, CI) or the user-wide folder hold the cache instead of __pycache__
-    in_tree = _package(tmp_path, SOURCES)
-    elsewhere = tmp_path / "numba-cache"
-    elsewhere.mkdir()
-    for name in SOURCES:
+def test_the_cache_folder_is_cleaned_and_a_new_one_stamped(tmp_path):
+    # NUMBA_CACHE_DIR (clusters, CI): the cache lives in a folder of its own
+    _package(tmp_path, SOURCES)
+    elsewhere = tmp_path / "numba-cache" / "core_1234"
+    guard_cache(tmp_path, elsewhere)  # not there yet: created with the fingerprints
+    for name in SOURCES:  # what Numba then caches in this process is current
         (elsewhere / f"{name}.f-1.py311.nbi").write_text("index")
-    folders = [in_tree, elsewhere, tmp_path / "never-used"]
-    guard_cache(tmp_path, folders)
-    assert not list(elsewhere.glob("*.nbi")) and not (tmp_path / "never-used").exists()
-    for name in SOURCES:
-        (elsewhere / f"{name}.f-1.py311.nbi").write_text("index")
+    guard_cache(tmp_path, elsewhere)  # the next import keeps it all (a warm start)
+    assert len(list(elsewhere.glob("*.nbi"))) == 4
     (tmp_path / "queue.py").write_text("top = 2\n")
-    guard_cache(tmp_path, folders)
+    guard_cache(tmp_path, elsewhere)
     assert sorted(p.name.split(".")[0] for p in elsewhere.glob("*.nbi")) == ["collide", "predict"]
 
 
-def test_the_cache_folders_follow_numba(monkeypatch, tmp_path):
+def test_the_cache_folder_follows_numba(monkeypatch, tmp_path):
     from numba.core import config
 
-    from edmd._core import cache_folders
+    from edmd._core import cache_folder
 
-    monkeypatch.setattr(config, "CACHE_DIR", str(tmp_path))
-    folders = cache_folders(tmp_path / "pkg")
-    assert folders[0] == tmp_path / "pkg" / "__pycache__"
-    assert any(f.parent == tmp_path and f.name.startswith("pkg_") for f in folders)
+    (tmp_path / "pkg").mkdir()
+    monkeypatch.setattr(config, "CACHE_DIR", "")
+    assert cache_folder(tmp_path / "pkg") == tmp_path / "pkg" / "__pycache__"
+    monkeypatch.setattr(config, "CACHE_DIR", str(tmp_path / "cache"))
+    folder = cache_folder(tmp_path / "pkg")
+    assert folder.parent == tmp_path / "cache" and folder.name.startswith("pkg_")

@@ -5,7 +5,7 @@ function carries the code of the helpers it inlines or calls from other modules:
 ``collide.py`` alone would leave a stale compiled ``run_events`` behind. Before anything is
 compiled, this package therefore fingerprints each module together with every core module it
 imports (directly or not) and clears the cache files of exactly the modules whose fingerprint
-changed, in every folder Numba may cache them in (next to the sources, ``NUMBA_CACHE_DIR``, the
+changed, in the folder Numba caches them in (next to the sources, ``NUMBA_CACHE_DIR``, or the
 user-wide folder): an edit to ``collide.py`` recompiles the collision rules and the loop, not the
 queue, the cells or the two-body solver.
 """
@@ -13,6 +13,7 @@ queue, the cells or the two-body solver.
 import ast
 import hashlib
 import json
+import os
 from pathlib import Path
 
 _STAMP = "edmd-core-sources.json"
@@ -52,36 +53,39 @@ def fingerprints(sources: dict[str, str]) -> dict[str, str]:
     return prints
 
 
-def cache_folders(package: Path) -> list[Path]:
-    """The folders Numba may keep this package's cache in: ``__pycache__`` next to the sources,
-    ``NUMBA_CACHE_DIR``'s folder for them when that is set, and the user-wide cache folder
-    (read-only installs). The last two follow Numba's own locators."""
-    folders = [package / "__pycache__"]
+def cache_folder(package: Path) -> Path:
+    """The folder Numba keeps this package's cache in, chosen as Numba's locators choose it:
+    ``NUMBA_CACHE_DIR``'s folder for these sources when that is set, else ``__pycache__`` next to
+    them when it can be written, else the user-wide cache folder (read-only installs)."""
+    in_tree = package / "__pycache__"
     try:
         from numba.core import caching, config
-
-        source = str(package / "loop.py")
-        if config.CACHE_DIR:
-            folders.append(Path(config.CACHE_DIR) / caching.UserProvidedCacheLocator.get_suitable_cache_subpath(source))
         from numba.misc.appdirs import AppDirs
-
-        user = Path(AppDirs(appname="numba", appauthor=False).user_cache_dir)
-        folders.append(user / caching.UserWideCacheLocator.get_suitable_cache_subpath(source))
-    except (ImportError, AttributeError):  # pragma: no cover - depends on Numba's private layout
+    except ImportError:  # pragma: no cover - depends on Numba's private layout
+        return in_tree
+    source = str(package / "loop.py")
+    if config.CACHE_DIR:
+        return Path(config.CACHE_DIR) / caching.UserProvidedCacheLocator.get_suitable_cache_subpath(source)
+    try:
+        in_tree.mkdir(exist_ok=True)
+        if os.access(in_tree, os.W_OK):
+            return in_tree
+    except OSError:
         pass
-    return folders
+    user = Path(AppDirs(appname="numba", appauthor=False).user_cache_dir)
+    return user / caching.UserWideCacheLocator.get_suitable_cache_subpath(source)
 
 
-def guard_cache(package: Path, folders: list[Path] | None = None):
+def guard_cache(package: Path, folder: Path | None = None):
     """Delete the Numba cache files (``<module>.*.nb[ic]``) of the modules of ``package`` whose
-    fingerprint (:func:`fingerprints`) changed since the last call, in every cache folder."""
+    fingerprint (:func:`fingerprints`) changed since the last call, in its cache folder.
+
+    The folder is created with the fingerprints when it does not exist yet, so that the cache
+    Numba then writes into it is known to be current at the next import.
+    """
     sources = {src.stem: src.read_text() for src in sorted(package.glob("*.py"))}
     now = fingerprints(sources)
-    for folder in cache_folders(package) if folders is None else folders:
-        _clean(folder, now)
-
-
-def _clean(folder: Path, now: dict[str, str]):
+    folder = cache_folder(package) if folder is None else folder
     stamp = folder / _STAMP
     try:
         before = json.loads(stamp.read_text())
@@ -90,9 +94,7 @@ def _clean(folder: Path, now: dict[str, str]):
     if before == now:
         return
     try:
-        if not folder.is_dir() and folder.name != "__pycache__":
-            return  # Numba has not used this folder (yet): nothing stale in it
-        folder.mkdir(exist_ok=True)
+        folder.mkdir(parents=True, exist_ok=True)
         for name, digest in now.items():
             if before.get(name) != digest:
                 for stale in folder.glob(f"{name}.*.nb[ic]"):
