@@ -20,6 +20,7 @@ from .state import State, StateError
 from .app.sweeps import SweepError, SweepResult, SweepSpec, sweep, sweep_summary
 from .files.thermo import Thermo, read_thermo
 from .physics.thermostats import Andersen, WhiteNoise
+from .physics.vibration import VibratingWall
 from .files.trajectory import Trajectory, read_state, write_state
 from .run.updaters import Updater, VelocityRescale
 
@@ -49,6 +50,7 @@ __all__ = [
     "Trajectory",
     "Updater",
     "VelocityRescale",
+    "VibratingWall",
     "WhiteNoise",
     "collide",
     "lattice",

@@ -29,6 +29,7 @@ from .contact import MODEL_HERTZ, contact_scales
 from .jit import hot, leaf
 from .predict import wrap3
 from .twobody import dashpot_central
+from .walls import wall_velocity
 
 
 @leaf
@@ -191,12 +192,16 @@ def collide_pair(t, P, mass, omega, inertia, tlast, i, j, geo, fp, ip, etab, acc
 
 
 @hot
-def collide_wall(t, P, mass, omega, inertia, tlast, i, axis, face, fp, ip, etab, acc):
+def collide_wall(t, P, mass, omega, inertia, tlast, i, axis, face, geo, fp, ip, etab, acc):
     """Bounce ``i`` (streamed to the contact time ``t``) off the wall ``face`` (0 lower, 1 upper) of ``axis``.
 
-    The wall is a particle of infinite mass and moment of inertia at rest (physics.md §1.3);
-    its own normal/tangential laws and TC rule apply. The normal momentum it takes is added
-    to ``acc[A_WALL + 2 * axis + face]`` (wall pressure) and the momentum change to ``acc[A_P*]``.
+    The wall is a particle of infinite mass and moment of inertia (physics.md §1.3); its own
+    normal/tangential laws and TC rule apply to the velocity relative to the wall, which moves
+    along its normal with :func:`.walls.wall_velocity` :math:`u` (0 unless it is the vibrating
+    wall, §1.6). The normal momentum it takes is added to ``acc[A_WALL + 2 * axis + face]``
+    (wall pressure), the momentum change to ``acc[A_P*]``, the energy lost in the wall's frame
+    to ``acc[A_DISSIPATED]`` and the work :math:`u J` the wall did to ``acc[A_ENERGY_INPUT]``.
+    Returns the normal and tangential impact speeds relative to the wall (zeros: no impact).
     """
     nx = ny = nz = 0.0
     sign = 1.0 if face == 0 else -1.0
@@ -206,10 +211,11 @@ def collide_wall(t, P, mass, omega, inertia, tlast, i, axis, face, fp, ip, etab,
         ny = sign
     else:
         nz = sign
+    uw = wall_velocity(axis, face, t, geo)
     gx, gy, gz = P[i, L.VX], P[i, L.VY], P[i, L.VZ]
-    gn = gx * nx + gy * ny + gz * nz
+    gn = gx * nx + gy * ny + gz * nz - uw * sign
     if gn >= 0.0:
-        return
+        return 0.0, 0.0
     tangent = ip[L.IP_WALL_TANGENT]
     spin = tangent != TANGENT_SMOOTH
     mi, ri = mass[i], P[i, L.R]
@@ -221,14 +227,20 @@ def collide_wall(t, P, mass, omega, inertia, tlast, i, axis, face, fp, ip, etab,
         beta = -1.0
     else:
         e = normal_restitution(ip[L.IP_WALL_NORMAL], fp[L.FP_WALL_EN], -gn, mi, ri, fp, ip, etab)
+    k0 = _energy(P, mass, omega, inertia, i, False)
+    if uw != 0.0:  # into the wall's frame
+        P[i, L.VX + axis] -= uw
+        gx, gy, gz = P[i, L.VX], P[i, L.VY], P[i, L.VZ]
     jx, jy, jz, vn, vt = impulse(
         nx, ny, nz, gx, gy, gz, ri * omega[i, 0], ri * omega[i, 1], ri * omega[i, 2],
         inv_mu, inv_mt, e, beta, fp[L.FP_WALL_MU], tangent,
     )  # fmt: skip
-    k0 = _energy(P, mass, omega, inertia, i, False)
     e0 = _energy(P, mass, omega, inertia, i, spin)
     _kick(P, omega, i, jx, jy, jz, nx, ny, nz, 1.0 / mi, ri / inertia[i], spin)
     e1 = _energy(P, mass, omega, inertia, i, spin)
+    if uw != 0.0:
+        P[i, L.VX + axis] += uw
+        acc[L.A_ENERGY_INPUT] += uw * (jx * nx + jy * ny + jz * nz) * sign
     acc[L.A_KE] += _energy(P, mass, omega, inertia, i, False) - k0
     acc[L.A_DISSIPATED] += e0 - e1
     acc[L.A_PX] += jx
@@ -237,3 +249,4 @@ def collide_wall(t, P, mass, omega, inertia, tlast, i, axis, face, fp, ip, etab,
     acc[L.A_WALL + 2 * axis + face] += jx * nx + jy * ny + jz * nz
     if ip[L.IP_TC]:
         tlast[i] = t
+    return vn, vt

@@ -30,6 +30,7 @@ from .nblist import SQRT3, rebuild_list
 from .predict import INF, advance, flight, separation, wrap3
 from .schedule import repredict, wrap_into_box
 from .twobody import lab_frame_update
+from .walls import wall_planes
 
 
 @hot
@@ -68,8 +69,10 @@ def relocation_blocked(p, x, y, z, i, j, t, P, grid, geo, walls, cbuf):
     r = P[p, L.R]
     new = (x, y, z)
     for k in range(3):
-        if walls & (1 << k) and abs(new[k]) + r > 0.5 * geo[k]:
-            return True
+        if walls & (1 << k):
+            lo, hi = wall_planes(k, t, geo)
+            if new[k] - r < lo or new[k] + r > hi:
+                return True
     x, y, z = wrap3(x, y, z, geo)  # into the box: the point's own cell
     nc, s, k = walk_around(grid, cell_of_point(x, y, z, geo, grid), geo, cbuf)
     while k >= 0:

@@ -222,6 +222,9 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on):
             aux = True  # re-predict the single-particle event
             if ev.aux_t[i] <= ev.pair_t[i]:
                 kind = ev.aux_k[i]
+                if walls and log_cap > 0 and cnt[L.C_LOG] >= log_cap and kind >= L.AUX_WALL and kind < L.AUX_WALL_END:
+                    cnt[L.C_EVENTS] -= 1  # (wall impacts are logged too)
+                    return L.ST_LOG_FULL
                 cnt[L.C_AUX] += 1
                 if emd_on and kind == L.AUX_B:
                     execute_b(i, t, P, count, emd, geo)
@@ -237,8 +240,10 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on):
                         bath_event(i, t, P, mass, omega, inertia, count, drive, fp, acc, rough or ip[L.IP_WALL_TANGENT] != TANGENT_SMOOTH)
                         cnt[L.C_BATH] += 1
                     elif walls:
-                        collide_wall(t, P, mass, omega, inertia, tlast, i, (kind - L.AUX_WALL) >> 1, (kind - L.AUX_WALL) & 1, fp, ip, etab, acc)
+                        wall = kind - L.AUX_WALL
+                        vn, vt = collide_wall(t, P, mass, omega, inertia, tlast, i, wall >> 1, wall & 1, geo, fp, ip, etab, acc)
                         cnt[L.C_WALL] += 1
+                        _log_collision(clog, cnt, log_cap, t, i, -1 - wall, vn, vt)  # partner -1 - (2 axis + face)
                     count[i] += 1
                 elif kind == L.AUX_SHELL:  # the particle left the shell of its neighbour list
                     advance(P, i, t, geo)

@@ -22,6 +22,7 @@ from .layout import NB_LIST
 from .nblist import shell_exit_time
 from .predict import INF, contact_time, flight, gap_time, relative_to
 from .queue import queue_update
+from .walls import is_moving, moving_wall_time
 
 
 @hot
@@ -98,18 +99,22 @@ def _crossing_event(i, t, P, ev, grid, geo):
 
 @hot
 def _wall_event(i, t, P, geo, walls, best, kind):
-    """Improve ``(best, kind)`` with the earliest wall contact of ``i`` (physics.md §1.3)."""
+    """Improve ``(best, kind)`` with the earliest wall contact of ``i`` (physics.md §1.3; the
+    vibrating wall: §1.6, :mod:`.walls`)."""
     xs = flight(P, i, t, geo)
     r = P[i, L.R]
     for k in range(3):
         if walls & (1 << k):
             x, v, g, half = xs[k], xs[3 + k], geo[L.G_GX + k], 0.5 * geo[k]
-            tk = gap_time(x + half - r, v, g)
-            if tk < best:
-                best, kind = tk, L.AUX_WALL + 2 * k
-            tk = gap_time(half - x - r, -v, -g)
-            if tk < best:
-                best, kind = tk, L.AUX_WALL + 2 * k + 1
+            for face in range(2):
+                sign = 1.0 if face == 0 else -1.0  # along the wall's inward normal
+                h = half + sign * x - r
+                if is_moving(k, face, geo):  # (called: the vibrating wall's search is not inlined)
+                    tk = moving_wall_time(h, sign * v, sign * g, t, geo, best)
+                else:
+                    tk = gap_time(h, sign * v, sign * g)
+                if tk < best:
+                    best, kind = tk, L.AUX_WALL + 2 * k + face
     return best, kind
 
 

@@ -83,8 +83,9 @@ class CollisionStatistics:
         log = np.asarray(log, float)
         if log.ndim != 2 or log.shape[1] != 5:
             raise ValueError(f"a collision log has rows (time, i, j, v_n, v_t); got shape {log.shape}")
+        log = log[log[:, 2] >= 0]  # binary collisions (wall impacts have j < 0)
         if len(log) == 0:
-            raise ValueError("the collision log is empty (call sim.engine.enable_log() before running)")
+            raise ValueError("the collision log has no binary collision (call sim.engine.enable_log() before running)")
         duration = float(log[-1, 0] - log[0, 0]) if duration is None else float(duration)
         if not duration > 0:
             raise ValueError(f"duration must be positive, got {duration}")

@@ -19,6 +19,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from ..physics import collide
 from ..physics.thermostats import Andersen, WhiteNoise
+from ..physics.vibration import VibratingWall
 
 
 class ConfigError(ValueError):
@@ -324,6 +325,20 @@ class ForcingConfig(_Section):
         return WhiteNoise(xi0=self.xi0, interval=self.interval, seed=self.seed, start=self.start)
 
 
+class VibrationConfig(_Section):
+    """``[vibration]``: one wall moving along its normal (see :class:`edmd.VibratingWall`)."""
+
+    axis: Literal["x", "y", "z"] = Field("z", description="a walled axis (walls.axes)")
+    side: Literal["lower", "upper"] = Field("lower", description="which wall of the axis moves")
+    amplitude: float = Field(gt=0, allow_inf_nan=False, description="a: the wall sweeps [0, 2a] into the box")
+    omega: float = Field(gt=0, allow_inf_nan=False, description="angular frequency")
+    phase: float = Field(0.0, allow_inf_nan=False, description="phase at time 0 (radians)")
+    wave: Literal["sine", "triangle", "sawtooth"] = Field("sine", description="waveform of the displacement")
+
+    def build(self) -> VibratingWall:
+        return VibratingWall(amplitude=self.amplitude, omega=self.omega, phase=self.phase, axis=self.axis, side=self.side, wave=self.wave)
+
+
 class OutputConfig(_Section):
     """``[output]``: which files the run directory gets."""
 
@@ -345,6 +360,8 @@ class Config(_Section):
             raise ValueError("walls.axes: a 2D system has no z axis")
         if self.walls.viscoelastic and self.collision.young is None:
             raise ValueError("walls.viscoelastic needs a viscoelastic material in [collision] (young, poisson, A)")
+        if self.vibration is not None and self.vibration.axis not in self.walls.axes:
+            raise ValueError(f"vibration.axis = {self.vibration.axis!r} must be one of walls.axes (the vibrating wall is one of its walls)")
         return self
 
     system: SystemConfig = SystemConfig()
@@ -357,6 +374,7 @@ class Config(_Section):
     contact: ContactConfig | None = None
     thermostat: ThermostatConfig | None = None
     forcing: ForcingConfig | None = None
+    vibration: VibrationConfig | None = None
 
     @model_validator(mode="after")
     def _integrator(self):
@@ -367,8 +385,8 @@ class Config(_Section):
                 raise ValueError("the DEM takes its dissipation from [contact]; leave [collision] at rule = 'elastic' (no tc)")
             if self.walls.axes:
                 raise ValueError("the DEM needs a periodic box: leave walls.axes empty")
-            if self.thermostat is not None or self.forcing is not None:
-                raise ValueError("[thermostat] and [forcing] act through events: they need integrator.kind = 'edmd'")
+            if self.thermostat is not None or self.forcing is not None or self.vibration is not None:
+                raise ValueError("[thermostat], [forcing] and [vibration] act through events: they need integrator.kind = 'edmd'")
         elif self.contact is not None:
             raise ValueError("[contact] is used by integrator.kind = 'dem' only")
         return self
@@ -561,6 +579,14 @@ plots = true              # PNG figures at the end of the run (also: `edmd plot 
 # xi0 = 1.0               #   per component every interval (the mean kick removed: momentum kept)
 # interval = 0.01
 # seed = 0
+
+# [vibration]             # a vibrating wall (edmd integrator only): displaced into the box by
+# axis = "z"              #   amplitude * (1 + w(omega t + phase)), w = sin, triangle or sawtooth
+# side = "lower"          #   the axis must be in walls.axes
+# amplitude = 0.1
+# omega = 10.0
+# phase = 0.0
+# wave = "sine"
 
 [integrator]
 kind = "edmd"             # "edmd" (event-driven, hard particles) or "dem" (force-based, soft contacts)

@@ -80,7 +80,10 @@ def build_simulation(cfg: Config, state: State | None = None) -> Simulation:
     walls = cfg.walls.build(cfg.collision.material(), getattr(rule, "contact", None))
     bath = None if cfg.thermostat is None else cfg.thermostat.build()
     kicks = None if cfg.forcing is None else cfg.forcing.build()
-    return Simulation(state, collision=rule, walls=walls, gravity=cfg.system.gravity, thermostat=bath, forcing=kicks, engine=options)
+    shaker = None if cfg.vibration is None else cfg.vibration.build()
+    return Simulation(
+        state, collision=rule, walls=walls, gravity=cfg.system.gravity, thermostat=bath, forcing=kicks, vibration=shaker, engine=options
+    )
 
 
 def make_observers(cfg: Config, out: Path, run_id: str | None = None) -> list[Observer]:

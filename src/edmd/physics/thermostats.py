@@ -33,6 +33,7 @@ import numpy as np
 
 from .._core import layout as L
 from .._core.forcing import tick_time
+from .vibration import VibratingWall
 
 
 @dataclasses.dataclass(frozen=True)
@@ -150,11 +151,11 @@ def _check_parameters(driver, positive: tuple[str, ...]):
         raise ValueError(f"{owner} seed must be an integer in [0, 2**63), got {seed!r}")
 
 
-DRIVERS = {"andersen": Andersen, "white_noise": WhiteNoise}
+DRIVERS = {"andersen": Andersen, "white_noise": WhiteNoise, "vibrating_wall": VibratingWall}
 
 
 def driver_from_dict(data: dict | None, expected: type):
-    """The thermostat or forcing of a ``to_dict()`` (``None`` stays ``None``), checked to be an ``expected``.
+    """The thermostat, forcing or vibrating wall of a ``to_dict()`` (``None`` stays ``None``), checked to be an ``expected``.
 
     Example:
         >>> driver_from_dict({"kind": "andersen", "kT": 1.0, "rate": 0.5}, Andersen)
@@ -162,7 +163,7 @@ def driver_from_dict(data: dict | None, expected: type):
         >>> driver_from_dict({"kind": "nose", "kT": 1.0}, Andersen)
         Traceback (most recent call last):
         ...
-        ValueError: unknown kind 'nose'; the kinds are andersen, white_noise
+        ValueError: unknown kind 'nose'; the kinds are andersen, white_noise, vibrating_wall
     """
     if data is None:
         return None

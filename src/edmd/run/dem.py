@@ -89,6 +89,7 @@ class DEMEngine:
     emd_rule = None
     thermostat = None
     forcing = None
+    vibration = None
 
     def __init__(self, state: State, contact: ContactModel, dt: float, skin: float, gravity=None):
         if not np.all(state.periodic):

@@ -83,7 +83,7 @@ class CollapseError(EngineError):
 class Engine:
     """Compiled-core arrays of one system (internal; see :class:`edmd.Simulation`)."""
 
-    def __init__(self, state: State, options: EngineOptions | None = None, rule=None, wall=None, gravity=None, thermostat=None, forcing=None):
+    def __init__(self, state: State, options: EngineOptions | None = None, rule=None, wall=None, gravity=None, thermostat=None, forcing=None, vibration=None):
         self.options = options or EngineOptions()
         self.dim = state.dim
         self.n = state.n
@@ -110,6 +110,9 @@ class Engine:
                 driver.pack(self.fp, self.ip)
         if forcing is not None and self.emd_rule is not None:
             raise StateError("white-noise forcing and eMD* cannot be combined: a kick would break a pending soft contact")
+        self.vibration = vibration
+        if vibration is not None:
+            self._check_vibration(state, vibration)
         self.etab = collide.viscoelastic_table()[0]
         self.ip[L.IP_WALLS] = sum(1 << k for k in range(self.dim) if not self.periodic[k])
         self.ip[L.IP_MAXSTALL] = 2 * self.n + 1000
@@ -175,11 +178,40 @@ class Engine:
             ball = (4.0 / 3.0 * math.pi * reach**3) if self.dim == 3 else (math.pi * reach**2)
             self.list_capacity = max(self.list_capacity, int(1.6 * n_density * ball) + 8)
 
+    def _check_vibration(self, state: State, vib):
+        k = vib.axis_index
+        if k >= self.dim or self.periodic[k]:
+            raise StateError(f"the vibrating wall's axis {vib.axis!r} must be closed by walls (walls.axes)")
+        room = self.box[k] - 2.0 * vib.amplitude - 2.0 * float(state.radius.max())
+        if room <= 0.0:
+            raise StateError(
+                f"the vibrating wall sweeps 2 x amplitude = {2 * vib.amplitude:g} of the box length {self.box[k]:g} "
+                f"along {vib.axis}: no room left for a particle of diameter {2 * float(state.radius.max()):g}"
+            )
+
+    def _vibration_clear(self, state: State):
+        """Every particle must be on the box side of the vibrating wall when it is loaded."""
+        vib = self.vibration
+        k = vib.axis_index
+        plane = vib.plane(float(state.time), float(self.box[k]))
+        x, r = state.position[:, k], state.radius
+        gap = x - r - plane if vib.side == "lower" else plane - x - r
+        worst = int(np.argmin(gap))
+        if gap[worst] < -1e-9 * float(self.box[k]):
+            raise StateError(
+                f"particle {worst} overlaps the vibrating wall at time {state.time:g} (the wall is at {vib.axis} = {plane:.6g}, "
+                f"the particle reaches {x[worst] - r[worst] if vib.side == 'lower' else x[worst] + r[worst]:.6g}); "
+                "choose a phase that starts the wall at its rest plane (sine: phase = -pi/2) or make room"
+            )
+
     def load(self, state: State):
         """(Re)build every array from ``state``: particles are spatially sorted internally."""
         if state.n != self.n or state.dim != self.dim:
             raise StateError("a loaded state must have the same number of particles and dimension")
         self.t_origin = float(state.time)
+        if self.vibration is not None:
+            self._vibration_clear(state)
+            self.geo = L.make_geo(self.box, self.half, self.grav, self.vibration.geo_entries(self.t_origin))
         n = self.n
         pos = state.points
         order = self._spatial_order(pos)
@@ -295,7 +327,6 @@ class Engine:
 
         Returns the status code of the last loop call (``ST_TIME``, ``ST_EVENTS`` or ``ST_IDLE``).
         """
-        geo = self.geo
         budget = max_events
         interval = max(int(self.options.resync_every * self.n), 1)
         while True:
@@ -306,7 +337,7 @@ class Engine:
             chunk = int(min(budget, interval - (int(self.cnt[L.C_EVENTS]) - self.events_at_sync)))
             before = int(self.cnt[L.C_EVENTS])
             status = self.loop.run_events(
-                self.part, self.ev, self.q, self.grid, self.lists, geo, self.fp, self.ip,
+                self.part, self.ev, self.q, self.grid, self.lists, self.geo, self.fp, self.ip,  # (a resync re-bases the wall's phase)
                 self.acc, self.cnt, self.clog, self.cbuf, self.etab, self.emd, self.drive, t_stop - self.t_origin, chunk,
             )  # fmt: skip
             budget -= int(self.cnt[L.C_EVENTS]) - before
@@ -434,7 +465,8 @@ class Engine:
 
     # ------------------------------------------------------------------ collision log
     def enable_log(self, capacity: int = 65536):
-        """Record every collision as ``(time, i, j, v_n, v_t)`` with user indices."""
+        """Record every collision as ``(time, i, j, v_n, v_t)`` with user indices; a wall impact has
+        ``j = -1 - (2 axis + face)`` (face 0 the lower wall) and the speeds relative to the wall."""
         self.clog = np.zeros((capacity, 5))
         self.ip[L.IP_LOG_CAP] = capacity
         self.collision_log = []
@@ -445,7 +477,8 @@ class Engine:
             rows = self.clog[:k].copy()
             rows[:, 0] += self.t_origin
             rows[:, 1] = self.tag[rows[:, 1].astype(np.int64)]
-            rows[:, 2] = self.tag[rows[:, 2].astype(np.int64)]
+            j = rows[:, 2].astype(np.int64)
+            rows[:, 2] = np.where(j >= 0, self.tag[np.maximum(j, 0)], j)  # j < 0: wall -1 - j
             self.collision_log.append(rows)
         self.cnt[L.C_LOG] = 0
 

@@ -17,6 +17,7 @@ from .engine import Engine, EngineError, EngineOptions
 from .observer import Observer, Totals
 from ..state import State
 from ..physics.thermostats import Andersen, WhiteNoise, driver_from_dict
+from ..physics.vibration import VibratingWall
 
 
 class Simulation:
@@ -31,6 +32,7 @@ class Simulation:
         gravity: uniform acceleration (``d`` numbers) or ``None``.
         thermostat: a heat bath acting through events (:class:`edmd.Andersen`, or its dict) or ``None``.
         forcing: random kicks of every particle at fixed intervals (:class:`edmd.WhiteNoise`, or its dict) or ``None``.
+        vibration: a wall that moves along its normal (:class:`edmd.VibratingWall`, or its dict) or ``None``.
         engine: :class:`~edmd.run.engine.EngineOptions` (or a dict of them).
 
     Example:
@@ -51,6 +53,7 @@ class Simulation:
         gravity=None,
         thermostat: Andersen | dict | None = None,
         forcing: WhiteNoise | dict | None = None,
+        vibration: VibratingWall | dict | None = None,
         engine: EngineOptions | dict | None = None,
     ):
         if e_n is not None:
@@ -65,7 +68,8 @@ class Simulation:
             walls = collide.from_dict(walls)
         thermostat = _driver(thermostat, Andersen, "thermostat")
         forcing = _driver(forcing, WhiteNoise, "forcing")
-        self._engine = self._build_engine(state, collision, walls, gravity, (thermostat, forcing), engine)
+        vibration = _driver(vibration, VibratingWall, "vibration")
+        self._engine = self._build_engine(state, collision, walls, gravity, (thermostat, forcing, vibration), engine)
         #: uniform acceleration (``d`` components)
         self.gravity = self._engine.grav[: state.dim].copy()
         self._time = float(state.time)
@@ -75,8 +79,8 @@ class Simulation:
     def _build_engine(self, state, collision, walls, gravity, drivers, options):
         """The engine of these physics, compiled; sets :attr:`params` (subclasses with another
         engine, e.g. :class:`~edmd.run.dem.DEMSimulation`, override this and nothing else of the set-up)."""
-        thermostat, forcing = drivers
-        engine = Engine(state, options, rule=collision, wall=walls, gravity=gravity, thermostat=thermostat, forcing=forcing)
+        thermostat, forcing, vibration = drivers
+        engine = Engine(state, options, rule=collision, wall=walls, gravity=gravity, thermostat=thermostat, forcing=forcing, vibration=vibration)
         engine.compile()  # once per machine (cached on disk); kept out of wall_seconds
         _warn_viscoelastic_validity(state, engine.rule, engine.wall, engine.grav[: state.dim])
         #: the constructor's physics arguments (saved in checkpoints; new arguments belong here)
@@ -86,6 +90,7 @@ class Simulation:
             "gravity": None if gravity is None else [float(g) for g in gravity],
             "thermostat": None if thermostat is None else thermostat.to_dict(),
             "forcing": None if forcing is None else forcing.to_dict(),
+            "vibration": None if vibration is None else vibration.to_dict(),
             "engine": dataclasses.asdict(engine.options),
         }
         return engine
@@ -166,8 +171,10 @@ class Simulation:
 
     @property
     def has_energy_input(self) -> bool:
-        """Whether something puts energy in (updaters, a thermostat, forcing): ``Totals.energy_input`` counts it."""
-        return self.has_updaters or self._engine.thermostat is not None or self._engine.forcing is not None
+        """Whether something puts energy in (updaters, a thermostat, forcing, a vibrating wall):
+        ``Totals.energy_input`` counts it."""
+        e = self._engine
+        return self.has_updaters or any(d is not None for d in (e.thermostat, e.forcing, e.vibration))
 
     def apply_update(self, old: State, new: State):
         """Continue from ``new``, the system at ``old.time`` as an updater changed it.
@@ -275,7 +282,7 @@ class Simulation:
 
 
 def _driver(value, kind: type, name: str):
-    """A thermostat or forcing argument: ``None``, a ``kind``, or its dict."""
+    """A thermostat, forcing or vibration argument: ``None``, a ``kind``, or its dict."""
     if isinstance(value, dict):
         value = driver_from_dict(value, kind)
     if value is not None and not isinstance(value, kind):
