@@ -44,8 +44,6 @@ from .layout import G_WALL_A, G_WALL_AXIS, G_WALL_FACE, G_WALL_OMEGA, G_WALL_PHA
 from .predict import INF, gap_time
 
 TWO_PI = 2.0 * math.pi
-#: a piece that ends within this fraction of a cycle is taken as ended (round-off of the phase)
-PIECE_EPS = 1e-12
 
 
 @leaf
@@ -167,8 +165,9 @@ def _sine_root(sa, sb, h, v, g, a, om, th, scale):
 
 
 @leaf
-def _sine_segment(theta, c):
-    """Phase to the next inflection of the sine gap (where ``sin = c``), or one period if none."""
+def _sine_segment(theta, c, tiny):
+    """Phase to the next inflection of the sine gap (where ``sin = c``), or one period if none.
+    An inflection closer than ``tiny`` (round-off of the phase) is the one just passed."""
     if not abs(c) < 1.0:
         return TWO_PI
     alpha = math.asin(c)
@@ -177,20 +176,20 @@ def _sine_segment(theta, c):
     for b in (alpha, math.pi - alpha):
         d = b - q
         d -= TWO_PI * math.floor(d / TWO_PI)
-        if 0.0 < d < best:
+        if tiny < d < best:
             best = d
     return best
 
 
 @leaf
-def _piece(wave, theta):
+def _piece(wave, theta, tiny):
     """The linear piece of a triangle or sawtooth wave at phase ``theta``: the phase left in it,
-    ``w`` and ``dw/dtheta`` there. A piece ending within round-off is taken as ended."""
+    ``w`` and ``dw/dtheta`` there. A piece ending within ``tiny`` (round-off) is taken as ended."""
     q = theta / TWO_PI + (0.25 if wave == WAVE_TRIANGLE else 0.5)
     q -= math.floor(q)
     ends = (0.5, 1.0) if wave == WAVE_TRIANGLE else (1.0, 1.0)
     end = ends[0] if q < ends[0] else ends[1]
-    if end - q < PIECE_EPS:
+    if end - q < tiny / TWO_PI:
         q = 0.0 if end == 1.0 else end
         end = ends[0] if q < ends[0] else ends[1]
     if wave == WAVE_TRIANGLE:
@@ -232,11 +231,12 @@ def moving_wall_time(h, v, g, t, geo, horizon):
             hs = h + v * s + 0.5 * g * s * s
         if s >= horizon:
             return INF
+        tiny = 1e-12 + 4e-16 * om * (abs(t) + s)  # the phase's round-off: segments are longer
         if wave == WAVE_SINE:
-            end = min(s + _sine_segment(th + om * s, c) / om, horizon)
+            end = min(s + _sine_segment(th + om * s, c, tiny) / om, horizon)
             root = _sine_root(s, end, h, v, g, a, om, th, abs(t) + abs(end))
         else:
-            dphase, w, dw = _piece(wave, th + om * s)
+            dphase, w, dw = _piece(wave, th + om * s, tiny)
             end = min(s + dphase / om, horizon)
             root = s + gap_time(hs - a * (1.0 + w), v + g * s - a * om * dw, g)
             if root > end:

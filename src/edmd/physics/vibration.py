@@ -25,6 +25,8 @@ from __future__ import annotations
 import dataclasses
 import math
 
+import numpy as np
+
 from .._core import layout as L
 from .._core.walls import wave_value
 
@@ -88,15 +90,19 @@ class VibratingWall:
         """Peak acceleration of a sine wall in units of ``g``, :math:`\\Gamma = a\\omega^2/g`."""
         return self.amplitude * self.omega**2 / g
 
-    def displacement(self, t: float) -> float:
-        """How far the wall is inside the box at time ``t``, :math:`d(t)`."""
-        w, _dw = wave_value(WAVES[self.wave], self.omega * t + self.phase)
-        return self.amplitude * (1.0 + w)
+    def _wave(self, t):
+        """:math:`w` and :math:`dw/d\\theta` at time(s) ``t`` (the core's formula)."""
+        theta = self.omega * np.asarray(t, float) + self.phase
+        w = np.array([wave_value(WAVES[self.wave], x) for x in theta.ravel()]).reshape(*theta.shape, 2)
+        return (float(w[0]), float(w[1])) if w.ndim == 1 else (w[..., 0], w[..., 1])
 
-    def velocity(self, t: float) -> float:
-        """The wall's velocity into the box at time ``t``, :math:`\\dot d(t)`."""
-        _w, dw = wave_value(WAVES[self.wave], self.omega * t + self.phase)
-        return self.amplitude * self.omega * dw
+    def displacement(self, t):
+        """How far the wall is inside the box at time(s) ``t``, :math:`d(t)`."""
+        return self.amplitude * (1.0 + self._wave(t)[0])
+
+    def velocity(self, t):
+        """The wall's velocity into the box at time(s) ``t``, :math:`\\dot d(t)`."""
+        return self.amplitude * self.omega * self._wave(t)[1]
 
     def plane(self, t: float, length: float) -> float:
         """The wall's coordinate along its axis at time ``t`` in a box of ``length`` along it."""
