@@ -185,6 +185,7 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on):
         total_mass = fp[L.FP_MTOT]
         skin = fp[L.FP_SKIN]
         wall_axes = ip[L.IP_WALLS]
+        origin = drive.origin[0]
         done = 0
         while True:
             i = queue_top(q)
@@ -195,7 +196,8 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on):
                 return L.ST_TIME
             if done >= max_events:
                 return L.ST_EVENTS
-            if t > acc[L.A_NOW]:
+            if origin + t > origin + acc[L.A_NOW]:  # the absolute clock advanced (a local advance
+                # below its resolution, left after a resync re-based the clock, does not count)
                 cnt[L.C_ZENO_RUN] = 0
             else:
                 cnt[L.C_ZENO_RUN] += 1

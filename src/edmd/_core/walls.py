@@ -156,6 +156,8 @@ def _sine_root(sa, sb, h, v, g, a, om, th, scale):
         return _bracket(0, sa, sm, h, v, g, a, om, th, scale) if _gap(sm, h, v, g, a, om, th)[0] <= 0.0 else INF
     if fa > 0.0:  # concave and clear of the wall: a closing root iff f(sb) <= 0, and it is unique
         return _bracket(0, sa, sb, h, v, g, a, om, th, scale) if fb <= 0.0 else INF
+    if da <= 0.0:  # at the wall (round-off) and not leaving it: the concave gap closes at once
+        return sa
     if db >= 0.0:  # at the wall (round-off) and still leaving it
         return INF
     sm = _bracket(1, sa, sb, h, v, g, a, om, th, scale)
@@ -213,7 +215,7 @@ def moving_wall_time(h, v, g, t, geo, horizon):
         >>> box, half = np.full(3, 10.0), np.array([np.inf, np.inf, 5.0])
         >>> geo = make_geo(box, half, None, (2, 0, WAVE_SINE, 0.1, 2.0, 0.0))
         >>> round(moving_wall_time(1.0, -1.0, 0.0, 0.0, geo, np.inf), 12)   # meets w = sin(2 s)
-        0.802868089189
+        0.80004289054
     """
     a, om = geo[G_WALL_A], geo[G_WALL_OMEGA]
     wave = int(geo[G_WALL_WAVE])

@@ -14,7 +14,7 @@ Example:
 """
 
 from ._common import compressibility_factor, contact_value, maxwell_speed_pdf
-from .collisions import CollisionStatistics, impact_angle_pdf, impact_speed_pdf
+from .collisions import CollisionStatistics, ImpactPhases, impact_angle_pdf, impact_speed_pdf
 from .dynamics import MSD, msd_window
 from .steady import Profile, SteadyState, blocking_errors
 from .structure import RDF, pair_histogram
@@ -26,6 +26,7 @@ __all__ = [
     "RDF",
     "CollisionStatistics",
     "HaffLaw",
+    "ImpactPhases",
     "Pressure",
     "Profile",
     "SteadyState",

@@ -1,4 +1,5 @@
-"""Collision statistics from the engine's collision log: rate, mean free time, impact speeds and angles."""
+"""Collision statistics from the engine's collision log: rate, mean free time, impact speeds and
+angles; the phases of impacts on a vibrating wall."""
 
 from __future__ import annotations
 
@@ -85,7 +86,7 @@ class CollisionStatistics:
             raise ValueError(f"a collision log has rows (time, i, j, v_n, v_t); got shape {log.shape}")
         log = log[log[:, 2] >= 0]  # binary collisions (wall impacts have j < 0)
         if len(log) == 0:
-            raise ValueError("the collision log has no binary collision (call sim.engine.enable_log() before running)")
+            raise ValueError("the collision log holds no binary collision (it is empty, or has wall impacts only; call sim.engine.enable_log() before running)")
         duration = float(log[-1, 0] - log[0, 0]) if duration is None else float(duration)
         if not duration > 0:
             raise ValueError(f"duration must be positive, got {duration}")
@@ -124,3 +125,66 @@ def _free_times(log: np.ndarray) -> np.ndarray:
     t, who = t[order], who[order]
     same = who[1:] == who[:-1]
     return (t[1:] - t[:-1])[same]
+
+
+class ImpactPhases:
+    r"""Impacts on a vibrating wall (physics.md §1.6): the wall's phase :math:`\theta = \omega t + \varphi`
+    (mod :math:`2\pi`) at each impact, its distribution and the impact speeds relative to the wall.
+
+    The log is the engine's collision log (``sim.engine.enable_log()``), where an impact on wall
+    ``face`` of ``axis`` has the partner :math:`j = -1 - (2\,\text{axis} + \text{face})`.
+
+    Args:
+        bins: number of phase bins over :math:`[0, 2\pi)`.
+
+    Attributes:
+        times, phases, speeds: time, wall phase and normal impact speed of every impact.
+        phase_edges, phase_pdf: the distribution of the phase.
+        rate: impacts per unit time (over the logged span, or ``duration``).
+        mean_speed: mean normal impact speed.
+
+    Example:
+        >>> import edmd, math, numpy as np
+        >>> ball = edmd.State(np.array([[0.0, 0.0, 0.0]]), np.zeros((1, 3)), np.array([0.05]), np.array([1.0]),
+        ...                   box=np.full(3, 0.35), periodic=np.array([True, True, False]))
+        >>> floor = edmd.VibratingWall(amplitude=1.2 / (4 * math.pi**2), omega=2 * math.pi, phase=-math.pi / 2)  # Gamma = 1.2 (g = 1)
+        >>> sim = edmd.Simulation(ball, walls=edmd.collide.Wall(e_n=0.5), gravity=[0.0, 0.0, -1.0], vibration=floor)
+        >>> sim.engine.enable_log(); sim.run(until_time=100.0)
+        >>> imp = ImpactPhases().compute(sim.engine.take_log(), floor)
+        >>> round(float(imp.phases[-1]), 9) == round(math.acos(math.pi * 0.5 / (1.2 * 1.5)), 9)   # the period-one orbit
+        True
+    """
+
+    def __init__(self, bins: int = 36):
+        if bins < 1:
+            raise ValueError(f"bins must be >= 1, got {bins}")
+        self.bins = int(bins)
+
+    def compute(self, log: np.ndarray, wall, duration: float | None = None) -> ImpactPhases:
+        """The impacts on ``wall`` (an :class:`edmd.VibratingWall`) in ``log`` (``(k, 5)`` rows)."""
+        log = np.asarray(log, float)
+        if log.ndim != 2 or log.shape[1] != 5:
+            raise ValueError(f"a collision log has rows (time, i, j, v_n, v_t); got shape {log.shape}")
+        code = -1 - (2 * wall.axis_index + (0 if wall.side == "lower" else 1))
+        rows = log[log[:, 2] == code]
+        if len(rows) == 0:
+            raise ValueError(f"the collision log holds no impact on the vibrating wall (partner {code}); call sim.engine.enable_log() before running")
+        self.times = rows[:, 0]
+        self.phases = np.mod(wall.omega * self.times + wall.phase, 2.0 * math.pi)
+        self.speeds = rows[:, 3]
+        self.mean_speed = float(self.speeds.mean())
+        span = float(self.times[-1] - self.times[0]) if duration is None else float(duration)
+        self.rate = len(rows) / span if span > 0 else math.nan
+        self.phase_pdf, self.phase_edges = np.histogram(self.phases, self.bins, range=(0.0, 2.0 * math.pi), density=True)
+        return self
+
+    def plot(self, ax=None):
+        """The phase distribution (the wall's displacement for reference); returns the Axes."""
+        ax = axes(ax)
+        centers = 0.5 * (self.phase_edges[1:] + self.phase_edges[:-1])
+        ax.step(centers, self.phase_pdf, where="mid", label="impacts")
+        ax.set_xlabel(r"wall phase at impact $\theta$")
+        ax.set_ylabel(r"$P(\theta)$")
+        ax.set_xlim(0.0, 2.0 * math.pi)
+        ax.legend()
+        return ax

@@ -137,12 +137,13 @@ def steady(
     run_dir: Path = typer.Argument(Path("edmd-run"), help="A run directory written by `edmd run`."),
     settle: float = typer.Option(0.0, "--settle", help="Ignore the approach: rows and frames before this time."),
     columns: list[str] = typer.Option(["temperature", "pressure"], "--column", "-c", help="thermo.csv columns to average (repeat the option)."),
-    profile: str = typer.Option(None, "--profile", help="Also write density, temperature and velocity profiles along this axis (x, y or z) from the trajectory."),
+    profile: str = typer.Option(None, "--profile", help="Also write density, temperature and velocity profiles along this axis (x, y or z) from the trajectory (CSV and PNG)."),
     bins: int = typer.Option(20, "--bins", min=1, help="Bins of the profile."),
 ):
     """Steady-state averages with blocking error bars (thermo.csv), and profiles along an axis."""
     from ..analysis.steady import Profile, SteadyState
     from ..files.atomic import atomic_path
+    from .plots import plot_profile, save
     from ..files.trajectory import iter_states
 
     try:
@@ -161,7 +162,8 @@ def steady(
             out = run_dir / f"profile_{profile}.csv"
             with atomic_path(out) as tmp:
                 np.savetxt(tmp, np.column_stack([p.centres, p.density, p.temperature, p.velocity]), fmt="%.17g", delimiter=",", header=head, comments="")
-            console.print(f"wrote {out} ({p.frames} frames)")
+            figure = save(plot_profile(p), out.with_suffix(".png"))
+            console.print(f"wrote {out} and {figure.name} ({p.frames} frames)")
     except (StateError, ValueError, OSError) as exc:
         _fail(str(exc))
 

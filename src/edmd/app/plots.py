@@ -404,6 +404,15 @@ def plot_snapshot(state: State, color_by: str = "speed", ax=None, slab: float | 
     return ax
 
 
+def plot_profile(profile, axs=None):
+    """Density, granular temperature and mean velocity along the profile's axis
+    (:class:`edmd.analysis.Profile`), side by side; returns the Axes."""
+    axs = _panels(axs, 3, figsize=(12.0, 3.8))
+    for ax, quantity in zip(axs, ("density", "temperature", "velocity")):
+        profile.plot(ax, quantity)
+    return axs
+
+
 def _figure(drawn):
     """The Figure of an Axes, of a tuple of Axes, or a Figure."""
     from matplotlib.figure import Figure

@@ -49,7 +49,7 @@ class VibratingWall:
 
     Example:
         >>> import edmd, numpy as np
-        >>> ball = edmd.State(np.array([[0.0, 0.0, 0.0]]), np.array([[0.0, 0.0, 0.0]]), np.array([0.05]),
+        >>> ball = edmd.State(np.array([[0.0, 0.0, 0.0]]), np.array([[0.0, 0.0, 0.0]]), np.array([0.05]), np.array([1.0]),
         ...                   box=np.array([1.0, 1.0, 1.0]), periodic=np.array([True, True, False]))
         >>> floor = edmd.VibratingWall(amplitude=0.01, omega=20.0)
         >>> sim = edmd.Simulation(ball, walls=edmd.collide.Wall(e_n=0.9), gravity=[0.0, 0.0, -1.0], vibration=floor)
