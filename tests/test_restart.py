@@ -240,6 +240,19 @@ seed = 4
 """
 
 
+#: a vibrating wall (its phase is re-based at every resync)
+VIBRATION = """
+[walls]
+axes = ["z"]
+e_n = 0.9
+[vibration]
+axis = "z"
+amplitude = 0.3
+omega = 5.0
+phase = -1.5707963267948966
+"""
+
+
 def _config(tmp_path, dim, until, ck=0.2, extra=""):
     p = tmp_path / f"c{until}.toml"
     p.write_text(CONFIG.format(dim=dim, until=until, ck=ck, extra=extra))
@@ -268,7 +281,7 @@ def test_cli_restart_errors_are_clean(tmp_path):
     assert r.exit_code == 2 and "not a readable checkpoint" in r.output and "Traceback" not in r.output
 
 
-@pytest.mark.parametrize("extra", ["", DRIVERS], ids=["plain", "bath+kicks"])
+@pytest.mark.parametrize("extra", ["", DRIVERS, VIBRATION], ids=["plain", "bath+kicks", "vibrating wall"])
 def test_kill_9_mid_run_then_restart_is_bit_for_bit(tmp_path, extra):
     """A child process runs "forever"; it is killed with SIGKILL after some checkpoints, then continued."""
     dim, t_end = 3, 3.0

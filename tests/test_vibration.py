@@ -141,7 +141,7 @@ def _ball(dim, e, gamma, v_factor, phase_factor=1.0):
     state = edmd.State(pos, vel, np.array([r]), np.array([1.0]), box=np.ones(dim), periodic=periodic, time=t0)
     grav = [0.0] * (dim - 1) + [-g]
     sim = edmd.Simulation(state, walls=edmd.collide.Wall(e_n=e), gravity=grav, vibration=floor)
-    sim.engine.enable_log()
+    sim.engine.enable_log(walls=True)
     return sim, theta, floor
 
 
@@ -195,30 +195,35 @@ def test_vibrated_bed_energy_balance(dim, wave):
     assert abs(balance) < 1e-9 * tot.energy_input
 
 
-def test_moving_wall_collision_in_the_wall_frame():
-    # a wall moving up at u: the rebound is u - e (v - u); rough walls leave the tangential
-    # slip relative to the wall (which has none) to their own law; the wall's work is u J
+VISCO = edmd.collide.Viscoelastic(young=63e9, poisson=0.2, A=1e-7)
+
+
+@pytest.mark.parametrize("law", [0.7, VISCO], ids=["constant", "viscoelastic"])
+def test_moving_wall_collision_in_the_wall_frame(law):
+    # a wall moving up at u: the rebound is u - e(|v - u|) (v - u), e taken at the speed relative to
+    # the wall; the tangential velocity is kept (smooth wall); the wall's work is u J
     from edmd._core.collide import collide_wall
 
-    e, u = 0.7, 0.4
+    u, v, m, radius = 0.4, -1.0, 1e-5, 1e-3
     box, half = np.full(3, 10.0), np.array([np.inf, np.inf, 5.0])
-    # a sawtooth wall moves with the constant velocity 2 a omega / (2 pi) = u
-    a, om = u * math.pi, 1.0
+    a, om = u * math.pi, 1.0  # a sawtooth moves with the constant velocity 2 a omega / (2 pi) = u
     geo = L.make_geo(box, half, None, (2, 0, L.WAVE_SAWTOOTH, a, om, 0.0))
     P = np.zeros((1, L.ROW))
-    P[0, L.VX], P[0, L.VZ], P[0, L.R] = 0.3, -1.0, 0.5
-    mass, inertia, omega = np.ones(1), np.full(1, 0.1), np.zeros((1, 3))
+    P[0, L.VX], P[0, L.VZ], P[0, L.R] = 0.3, v, radius
+    mass, inertia, omega = np.full(1, m), np.full(1, 0.4 * m * radius**2), np.zeros((1, 3))
     fp, ip = np.zeros(L.N_FP), np.zeros(L.N_IP, np.int64)
-    edmd.collide.pack(edmd.collide.Inelastic(1.0), edmd.collide.Wall(e_n=e), fp, ip)
+    edmd.collide.pack(edmd.collide.Inelastic(1.0), edmd.collide.Wall(e_n=law), fp, ip)
     acc = np.zeros(L.N_ACC)
     vn, _vt = collide_wall(0.0, P, mass, omega, inertia, np.full(1, -np.inf), 0, 2, 0, geo, fp, ip, edmd.collide.viscoelastic_table()[0], acc)
-    assert vn == pytest.approx(1.0 + u)
-    assert P[0, L.VZ] == pytest.approx(u + e * (1.0 + u), abs=1e-15)
+    e = law if law == 0.7 else VISCO.restitution(u - v, mu=m, r_eff=radius)
+    assert e < 0.99
+    assert vn == pytest.approx(u - v)
+    assert P[0, L.VZ] == pytest.approx(u + e * (u - v), rel=1e-6 if law is VISCO else 1e-14)  # (the core's e(v) is a spline)
     assert P[0, L.VX] == 0.3
-    jz = P[0, L.VZ] - (-1.0)
-    assert acc[L.A_ENERGY_INPUT] == pytest.approx(u * jz, abs=1e-15)
-    assert acc[L.A_DISSIPATED] == pytest.approx(0.5 * (1 - e * e) * (1.0 + u) ** 2, abs=1e-15)
-    assert acc[L.A_KE] == pytest.approx(acc[L.A_ENERGY_INPUT] - acc[L.A_DISSIPATED], abs=1e-15)
+    jz = m * (P[0, L.VZ] - v)
+    assert acc[L.A_ENERGY_INPUT] == pytest.approx(u * jz, rel=1e-14)
+    assert acc[L.A_DISSIPATED] == pytest.approx(0.5 * m * ((u - v) ** 2 - (P[0, L.VZ] - u) ** 2), rel=1e-12)
+    assert acc[L.A_KE] == pytest.approx(acc[L.A_ENERGY_INPUT] - acc[L.A_DISSIPATED], rel=1e-12)
 
 
 @pytest.mark.parametrize(

@@ -120,11 +120,12 @@ IPARAMS = (
     "bath_seed",  # its random seed
     "kick",  # white-noise forcing on
     "kick_seed",  # its random seed
+    "log_walls",  # the collision log also records wall impacts
 )
 (
     IP_MODE, IP_LOG_CAP, IP_MAXSTALL, IP_DEBUG, IP_NORMAL, IP_TANGENT, IP_TC, IP_WALL_NORMAL,
     IP_WALL_TANGENT, IP_WALLS, IP_EMD, IP_EMD_MODEL, IP_EMD_TABLE, IP_EMD_COMM, IP_BATH, IP_BATH_SEED,
-    IP_KICK, IP_KICK_SEED,
+    IP_KICK, IP_KICK_SEED, IP_LOG_WALLS,
 ) = range(len(IPARAMS))  # fmt: skip
 N_IP = len(IPARAMS)
 

@@ -182,6 +182,7 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on):
         key = q.key
         mode = ip[L.IP_MODE]
         log_cap = ip[L.IP_LOG_CAP]
+        log_walls = log_cap > 0 and ip[L.IP_LOG_WALLS] != 0
         total_mass = fp[L.FP_MTOT]
         skin = fp[L.FP_SKIN]
         wall_axes = ip[L.IP_WALLS]
@@ -224,8 +225,8 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on):
             aux = True  # re-predict the single-particle event
             if ev.aux_t[i] <= ev.pair_t[i]:
                 kind = ev.aux_k[i]
-                if walls and log_cap > 0 and cnt[L.C_LOG] >= log_cap and kind >= L.AUX_WALL and kind < L.AUX_WALL_END:
-                    cnt[L.C_EVENTS] -= 1  # (wall impacts are logged too)
+                if walls and log_walls and cnt[L.C_LOG] >= log_cap and kind >= L.AUX_WALL and kind < L.AUX_WALL_END:
+                    cnt[L.C_EVENTS] -= 1
                     return L.ST_LOG_FULL
                 cnt[L.C_AUX] += 1
                 if emd_on and kind == L.AUX_B:
@@ -245,7 +246,8 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on):
                         wall = kind - L.AUX_WALL
                         vn, vt = collide_wall(t, P, mass, omega, inertia, tlast, i, wall >> 1, wall & 1, geo, fp, ip, etab, acc)
                         cnt[L.C_WALL] += 1
-                        _log_collision(clog, cnt, log_cap, t, i, -1 - wall, vn, vt)  # partner -1 - (2 axis + face)
+                        if log_walls:
+                            _log_collision(clog, cnt, log_cap, t, i, -1 - wall, vn, vt)  # partner -1 - (2 axis + face)
                     count[i] += 1
                 elif kind == L.AUX_SHELL:  # the particle left the shell of its neighbour list
                     advance(P, i, t, geo)

@@ -131,7 +131,7 @@ class ImpactPhases:
     r"""Impacts on a vibrating wall (physics.md §1.6): the wall's phase :math:`\theta = \omega t + \varphi`
     (mod :math:`2\pi`) at each impact, its distribution and the impact speeds relative to the wall.
 
-    The log is the engine's collision log (``sim.engine.enable_log()``), where an impact on wall
+    The log is the engine's collision log with wall impacts (``sim.engine.enable_log(walls=True)``), where an impact on wall
     ``face`` of ``axis`` has the partner :math:`j = -1 - (2\,\text{axis} + \text{face})`.
 
     Args:
@@ -149,7 +149,7 @@ class ImpactPhases:
         ...                   box=np.full(3, 0.35), periodic=np.array([True, True, False]))
         >>> floor = edmd.VibratingWall(amplitude=1.2 / (4 * math.pi**2), omega=2 * math.pi, phase=-math.pi / 2)  # Gamma = 1.2 (g = 1)
         >>> sim = edmd.Simulation(ball, walls=edmd.collide.Wall(e_n=0.5), gravity=[0.0, 0.0, -1.0], vibration=floor)
-        >>> sim.engine.enable_log(); sim.run(until_time=100.0)
+        >>> sim.engine.enable_log(walls=True); sim.run(until_time=100.0)
         >>> imp = ImpactPhases().compute(sim.engine.take_log(), floor)
         >>> round(float(imp.phases[-1]), 9) == round(math.acos(math.pi * 0.5 / (1.2 * 1.5)), 9)   # the period-one orbit
         True
@@ -168,7 +168,7 @@ class ImpactPhases:
         code = -1 - (2 * wall.axis_index + (0 if wall.side == "lower" else 1))
         rows = log[log[:, 2] == code]
         if len(rows) == 0:
-            raise ValueError(f"the collision log holds no impact on the vibrating wall (partner {code}); call sim.engine.enable_log() before running")
+            raise ValueError(f"the collision log holds no impact on the vibrating wall (partner {code}); call sim.engine.enable_log(walls=True) before running")
         self.times = rows[:, 0]
         self.phases = np.mod(wall.omega * self.times + wall.phase, 2.0 * math.pi)
         self.speeds = rows[:, 3]

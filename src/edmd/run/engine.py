@@ -464,11 +464,13 @@ class Engine:
         return float(self.acc[L.A_KE_INT]) + self._kinetic_tail(t - self.t_origin)
 
     # ------------------------------------------------------------------ collision log
-    def enable_log(self, capacity: int = 65536):
-        """Record every collision as ``(time, i, j, v_n, v_t)`` with user indices; a wall impact has
-        ``j = -1 - (2 axis + face)`` (face 0 the lower wall) and the speeds relative to the wall."""
+    def enable_log(self, capacity: int = 65536, walls: bool = False):
+        """Record every collision as ``(time, i, j, v_n, v_t)`` with user indices; with ``walls``
+        also every wall impact, with ``j = -1 - (2 axis + face)`` (face 0 the lower wall) and the
+        speeds relative to the wall."""
         self.clog = np.zeros((capacity, 5))
         self.ip[L.IP_LOG_CAP] = capacity
+        self.ip[L.IP_LOG_WALLS] = int(walls)
         self.collision_log = []
 
     def _flush_log(self):
