@@ -115,3 +115,57 @@ def test_updaters_refuse_the_dem():
     sim = DEMSimulation(gas(3), contact=LinearDashpot.from_restitution(0.9, 1e4, mass=1.0))
     with pytest.raises(TypeError, match="VelocityRescale needs an event-driven Simulation"):
         sim.add(VelocityRescale(kT=1.0, interval=0.5))
+
+
+CONFIG = """
+[system]
+dim = {dim}
+n = 200
+packing_fraction = 0.2
+kT = 2.0
+[collision]
+rule = "inelastic"
+e_n = 0.8
+[thermostat]
+kind = "rescale"
+kT = 1.0
+interval = 0.5
+[run]
+until_time = 3.0
+output_interval = 0.5
+progress = false
+[output]
+plots = false
+"""
+
+
+def test_rescale_from_the_config(tmp_path, dim):
+    # [thermostat] kind = "rescale": thermo rows at the firing times see T = kT exactly
+    from typer.testing import CliRunner
+
+    from edmd.app.cli import app
+    from edmd.files.thermo import read_thermo
+
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(CONFIG.format(dim=dim))
+    r = CliRunner().invoke(app, ["run", str(cfg), "--out", str(tmp_path / "run")])
+    assert r.exit_code == 0, r.output
+    table = read_thermo(tmp_path / "run" / "thermo.csv")
+    assert np.allclose(table["temperature"][1:], 1.0, rtol=1e-12)
+    balance = np.asarray(table["energy_balance"])
+    assert np.ptp(balance) < 1e-9 * table["dissipated_energy"][-1]  # the input is booked
+
+
+@pytest.mark.parametrize(
+    "section, message",
+    [
+        ('kind = "rescale"\nkT = 1.0\n', "needs interval"),
+        ('kind = "rescale"\nkT = 1.0\ninterval = 1.0\nrate = 2.0\n', "rate is not used"),
+        ('kind = "andersen"\nkT = 1.0\n', "needs rate"),
+    ],
+)
+def test_thermostat_config_errors(section, message):
+    import tomllib
+
+    with pytest.raises(edmd.ConfigError, match=message):
+        edmd.parse_config(tomllib.loads("[thermostat]\n" + section))

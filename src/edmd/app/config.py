@@ -20,6 +20,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from ..physics import collide
 from ..physics.thermostats import Andersen, WhiteNoise
 from ..physics.vibration import VibratingWall
+from ..run.updaters import VelocityRescale
 
 
 class ConfigError(ValueError):
@@ -301,15 +302,33 @@ class ContactConfig(_Section):
 
 
 class ThermostatConfig(_Section):
-    """``[thermostat]``: a heat bath acting through events (see :class:`edmd.Andersen`)."""
+    """``[thermostat]``: a heat bath acting through events (:class:`edmd.Andersen`), or exact
+    rescaling of the temperature at fixed intervals (:class:`edmd.VelocityRescale`)."""
 
-    kind: Literal["andersen"] = Field(description="andersen: each particle's velocity is drawn anew at Poisson times")
-    kT: float = Field(gt=0, allow_inf_nan=False, description="bath temperature")
-    rate: float = Field(gt=0, allow_inf_nan=False, description="rate of each particle's bath events")
-    seed: int = Field(0, ge=0, lt=2**63, description="random seed of the bath")
+    kind: Literal["andersen", "rescale"] = Field(
+        description="andersen: each particle's velocity is drawn anew at Poisson times; rescale: all velocities scaled to kT every interval"
+    )
+    kT: float = Field(gt=0, allow_inf_nan=False, description="bath (target) temperature")
+    rate: float | None = Field(None, gt=0, allow_inf_nan=False, description="andersen: rate of each particle's bath events")
+    seed: int = Field(0, ge=0, lt=2**63, description="andersen: random seed of the bath")
+    interval: float | None = Field(None, gt=0, allow_inf_nan=False, description="rescale: time between two rescalings")
 
-    def build(self) -> Andersen:
-        return Andersen(kT=self.kT, rate=self.rate, seed=self.seed)
+    @model_validator(mode="after")
+    def _keys_of_kind(self):
+        needed, unused = ("rate", "interval") if self.kind == "andersen" else ("interval", "rate")
+        if getattr(self, needed) is None:
+            raise ValueError(f"kind = {self.kind!r} needs {needed}")
+        if getattr(self, unused) is not None:
+            raise ValueError(f"{unused} is not used by kind = {self.kind!r}")
+        return self
+
+    def build(self) -> Andersen | None:
+        """The event-driven bath (``None`` for ``rescale``, an updater: :meth:`updater`)."""
+        return Andersen(kT=self.kT, rate=self.rate, seed=self.seed) if self.kind == "andersen" else None
+
+    def updater(self) -> VelocityRescale | None:
+        """The rescaling updater of ``kind = "rescale"`` (``None`` for the bath)."""
+        return VelocityRescale(kT=self.kT, interval=self.interval) if self.kind == "rescale" else None
 
 
 class ForcingConfig(_Section):
@@ -573,6 +592,8 @@ plots = true              # PNG figures at the end of the run (also: `edmd plot 
 # kT = 1.0                #   at the times of its own Poisson process of this rate
 # rate = 0.1
 # seed = 0
+#                         # or: kind = "rescale", kT = 1.0, interval = 1.0: every velocity scaled
+#                         #   (about the mean) to temperature kT at exact times, every interval
 
 # [forcing]               # random kicks (edmd integrator only)
 # kind = "white_noise"    # every particle's velocity gets a Gaussian kick of variance xi0^2 * interval

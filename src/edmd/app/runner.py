@@ -98,6 +98,9 @@ def make_observers(cfg: Config, out: Path, run_id: str | None = None) -> list[Ob
         observers.append(Thermo(interval, path=out / "thermo.csv"))
     if o.trajectory:
         observers.append(Trajectory(out / "trajectory.gsd", o.trajectory_interval or interval, run_id=run_id))
+    rescale = None if cfg.thermostat is None else cfg.thermostat.updater()
+    if rescale is not None:
+        observers.append(rescale)
     if o.checkpoint and cfg.integrator.kind != "dem":  # the DEM has no checkpoints (yet)
         meta = {"config": dump_config(cfg), "run_id": run_id}
         observers.append(Checkpoint(out / "checkpoint.gsd", o.checkpoint_interval or interval, o.checkpoint_wall_interval, metadata=meta))
