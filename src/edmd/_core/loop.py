@@ -246,7 +246,7 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on):
                         wall = kind - L.AUX_WALL
                         vn, vt = collide_wall(t, P, mass, omega, inertia, tlast, i, wall >> 1, wall & 1, geo, fp, ip, etab, acc)
                         cnt[L.C_WALL] += 1
-                        if log_walls:
+                        if log_walls and vn > 0.0:  # (an impact: the particle approached the wall)
                             _log_collision(clog, cnt, log_cap, t, i, -1 - wall, vn, vt)  # partner -1 - (2 axis + face)
                     count[i] += 1
                 elif kind == L.AUX_SHELL:  # the particle left the shell of its neighbour list

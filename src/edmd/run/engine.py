@@ -204,13 +204,18 @@ class Engine:
                 "choose a phase that starts the wall at its rest plane (sine: phase = -pi/2) or make room"
             )
 
-    def load(self, state: State):
-        """(Re)build every array from ``state``: particles are spatially sorted internally."""
+    def load(self, state: State, new: bool = True):
+        """(Re)build every array from ``state``: particles are spatially sorted internally.
+
+        ``new``: a state from outside the engine (not one of its own resyncs or checkpoints),
+        checked to be clear of the vibrating wall.
+        """
         if state.n != self.n or state.dim != self.dim:
             raise StateError("a loaded state must have the same number of particles and dimension")
         self.t_origin = float(state.time)
         if self.vibration is not None:
-            self._vibration_clear(state)
+            if new:  # (the engine's own states touch the wall to round-off of the re-based phase)
+                self._vibration_clear(state)
             self.geo = L.make_geo(self.box, self.half, self.grav, self.vibration.geo_entries(self.t_origin))
         n = self.n
         pos = state.points
@@ -386,7 +391,7 @@ class Engine:
         time of ``state``) and rebuild every array from ``state``."""
         self._flush_log()
         self.acc[L.A_KE_INT] += self._kinetic_tail(local)
-        self.load(state)
+        self.load(state, new=False)
 
     def restore(self, state: State, counters: np.ndarray, accumulators: np.ndarray, list_capacity: int):
         """Rebuild the engine exactly as it was right after a resync to ``state`` (a checkpoint).
@@ -402,7 +407,7 @@ class Engine:
         self.cnt[:] = counters
         self.acc[:] = accumulators
         self.list_capacity = int(list_capacity)
-        self.load(state)
+        self.load(state, new=False)
 
     # ------------------------------------------------------------------ observation
     def stream(self, t: float):
