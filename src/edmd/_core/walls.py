@@ -1,8 +1,7 @@
 r"""The vibrating wall: a planar wall moving along its normal as a prescribed function of time
 (physics.md §1.6), the first moving boundary of the event interface.
 
-One wall of a walled axis (``geo[G_WALL_AXIS]``, face ``geo[G_WALL_FACE]``) is displaced into
-the box by
+One wall of a walled axis (axis and face in :func:`wall_params`) is displaced into the box by
 
 .. math::
     d(t) = a\,\bigl(1 + w(\theta)\bigr),\qquad \theta = \omega t + \varphi,\qquad w \in [-1, 1],
@@ -11,7 +10,7 @@ so it sweeps :math:`[0, 2a]` from its rest plane at :math:`\pm L/2` and the box 
 ``w`` is :math:`\sin\theta` (``WAVE_SINE``), a triangle wave or a sawtooth (``WAVE_TRIANGLE``,
 ``WAVE_SAWTOOTH``); the piecewise-linear waves have :math:`w(0) = 0` rising like the sine, and
 the sawtooth's jump moves the wall out of the box (it never jumps into a particle). Times in the
-core are local: ``geo[G_WALL_PHASE]`` is :math:`\theta` at local time 0.
+core are local: the phase of :func:`wall_params` is :math:`\theta` at local time 0.
 
 **Contact times** (:func:`moving_wall_time`). With the particle's gap to the rest plane
 :math:`h(s) = h_0 + v s + g s^2/2` (``g`` the component of gravity along the wall's inward
@@ -39,11 +38,35 @@ and the work done by the wall, :math:`W = u\,J_n`, is booked as energy input.
 
 import math
 
+from numba import types
+from numba.extending import overload
+
 from .jit import jit, leaf
-from .layout import G_WALL_A, G_WALL_AXIS, G_WALL_FACE, G_WALL_OMEGA, G_WALL_PHASE, G_WALL_WAVE, WAVE_SINE, WAVE_TRIANGLE
+from .layout import G_WALL_A, G_WALL_AXIS, G_WALL_FACE, G_WALL_OMEGA, G_WALL_PHASE, G_WALL_WAVE, NO_MOVING_WALL, WAVE_SINE, WAVE_TRIANGLE
 from .predict import INF, gap_time
 
 TWO_PI = 2.0 * math.pi
+
+
+def wall_params(geo):
+    """The vibrating wall's ``(axis, face, wave, amplitude, omega, phase at local time 0)`` of a
+    geometry (:func:`.layout.make_geo`); ``NO_MOVING_WALL`` when it has none.
+
+    Compiled code reads them by the tuple's length at typing time (:func:`_wall_params`): the
+    wall code of a run without a vibrating wall folds to nothing.
+
+    Example:
+        >>> wall_params((1.0,) * 10)
+        (-1.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    """
+    return tuple(geo[G_WALL_AXIS : G_WALL_PHASE + 1]) if len(geo) > G_WALL_AXIS else NO_MOVING_WALL
+
+
+@overload(wall_params, inline="always")
+def _wall_params(geo):
+    if isinstance(geo, types.BaseTuple) and len(geo) > G_WALL_AXIS:
+        return lambda geo: (geo[G_WALL_AXIS], geo[G_WALL_FACE], geo[G_WALL_WAVE], geo[G_WALL_A], geo[G_WALL_OMEGA], geo[G_WALL_PHASE])
+    return lambda geo: (-1.0, 0.0, 0.0, 0.0, 0.0, 0.0)  # NO_MOVING_WALL
 
 
 @leaf
@@ -73,15 +96,16 @@ def wave_value(wave, theta):
 @leaf
 def wall_shift(t, geo):
     """Displacement of the vibrating wall into the box and its rate at local time ``t``."""
-    a, om = geo[G_WALL_A], geo[G_WALL_OMEGA]
-    w, dw = wave_value(int(geo[G_WALL_WAVE]), geo[G_WALL_PHASE] + om * t)
+    _k, _face, wave, a, om, phase = wall_params(geo)
+    w, dw = wave_value(int(wave), phase + om * t)
     return a * (1.0 + w), a * om * dw
 
 
 @leaf
 def is_moving(k, face, geo):
     """Whether wall ``face`` (0 lower, 1 upper) of axis ``k`` is the vibrating wall."""
-    return geo[G_WALL_AXIS] == k and geo[G_WALL_FACE] == face
+    p = wall_params(geo)
+    return p[0] == k and p[1] == face
 
 
 @leaf
@@ -98,9 +122,10 @@ def wall_planes(k, t, geo):
     """Positions of the lower and upper wall of axis ``k`` at local time ``t``."""
     half = 0.5 * geo[k]
     lo, hi = -half, half
-    if geo[G_WALL_AXIS] == k:
+    p = wall_params(geo)
+    if p[0] == k:
         d, _u = wall_shift(t, geo)
-        if geo[G_WALL_FACE] == 0:
+        if p[1] == 0:
             lo += d
         else:
             hi -= d
@@ -210,16 +235,16 @@ def moving_wall_time(h, v, g, t, geo, horizon):
     and its velocity and acceleration along the wall's inward normal (see the module doc).
 
     Example:
-        >>> from edmd._core.layout import NO_MOVING_WALL, WAVE_SINE, make_geo
+        >>> from edmd._core.layout import WAVE_SINE, make_geo
         >>> import numpy as np
         >>> box, half = np.full(3, 10.0), np.array([np.inf, np.inf, 5.0])
         >>> geo = make_geo(box, half, None, (2, 0, WAVE_SINE, 0.1, 2.0, 0.0))
         >>> round(moving_wall_time(1.0, -1.0, 0.0, 0.0, geo, np.inf), 12)   # meets w = sin(2 s)
         0.80004289054
     """
-    a, om = geo[G_WALL_A], geo[G_WALL_OMEGA]
-    wave = int(geo[G_WALL_WAVE])
-    th = geo[G_WALL_PHASE] + om * t
+    _k, _face, wave, a, om, phase = wall_params(geo)
+    wave = int(wave)
+    th = phase + om * t
     reach = 2.0 * a
     c = -g / (a * om * om)
     s = 0.0
