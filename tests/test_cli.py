@@ -165,6 +165,13 @@ def test_compile_names_a_bad_feature():
     assert r.exit_code == 2 and "unknown feature 'ruogh'" in r.output
     r = runner.invoke(app, ["compile", "emdstar+rough"])
     assert r.exit_code == 2 and "cannot be combined" in r.output
+    r = runner.invoke(app, ["compile", "vibration"])
+    assert r.exit_code == 2 and "vibration needs walls" in r.output
+
+
+def test_compile_warms_the_vibrating_wall():
+    r = runner.invoke(app, ["compile", "walls+vibration"])
+    assert r.exit_code == 0 and "walls+vibration:" in r.output, r.output
 
 
 def test_run_says_when_it_compiles_its_loop(tmp_path, monkeypatch):

@@ -212,7 +212,7 @@ def _announce_compiles():
 @app.command("compile")
 def compile_(
     features: list[str] = typer.Argument(None, help="Feature sets, e.g. plain walls+rough emdstar (default: plain)."),
-    all_: bool = typer.Option(False, "--all", help="Every feature set but debug (52 variants, a few minutes)."),
+    all_: bool = typer.Option(False, "--all", help="Every feature set but debug (59 variants, a few minutes)."),
 ):
     """Compile the event loop ahead of time for these feature sets (for a cluster image, sweep workers or CI).
 

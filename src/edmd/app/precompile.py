@@ -8,7 +8,8 @@ sweep's workers or CI can warm the cache for the feature sets they will use.
 Features are written as ``+``-joined names: ``plain``, ``walls``, ``rough``, ``viscoelastic``,
 ``soft`` (the central restitution of a soft contact law used instantaneously), ``emdstar``,
 ``bath`` (the Andersen heat bath, :class:`edmd.Andersen`), ``noise`` (white-noise kicks,
-:class:`edmd.WhiteNoise`) and ``debug`` (the per-collision checks
+:class:`edmd.WhiteNoise`), ``vibration`` (a vibrating wall, :class:`edmd.VibratingWall`: the
+walls variant compiled for its geometry) and ``debug`` (the per-collision checks
 of ``[engine] debug``), e.g. ``walls+rough+viscoelastic``.
 """
 
@@ -21,7 +22,7 @@ from .._core import layout as L
 from .._core.jit import in_disk_cache
 from .._core.loop import loop_variant
 
-FEATURES = ("walls", "rough", "viscoelastic", "soft", "emdstar", "bath", "noise", "debug")
+FEATURES = ("walls", "rough", "viscoelastic", "soft", "emdstar", "bath", "noise", "vibration", "debug")
 
 
 class FeatureError(ValueError):
@@ -52,6 +53,8 @@ def parse_features(spec: str) -> frozenset[str]:
         raise FeatureError("white-noise kicks and eMD* cannot be combined")
     if {"viscoelastic", "soft"} <= found:
         raise FeatureError("choose one normal law: viscoelastic or soft")
+    if "vibration" in found and "walls" not in found:
+        raise FeatureError("a vibrating wall is one of the walls: vibration needs walls")
     return found
 
 
@@ -64,7 +67,8 @@ def all_feature_sets() -> list[frozenset[str]]:
                 sets.append(frozenset(walls + normal + rough))
         sets.append(frozenset(walls + ("emdstar",)))
     driven = [s | extra for s in sets for extra in ({"bath"}, {"noise"}, {"bath", "noise"}) if not ("emdstar" in s and "noise" in extra)]
-    return sets + driven
+    vibrated = [s | {"vibration"} for s in sets if "walls" in s]
+    return sets + driven + vibrated
 
 
 def _variant(features: frozenset[str]):
@@ -85,6 +89,7 @@ def _example(features: frozenset[str]):
     from ..physics.contact import Hertz
     from ..physics.emdstar import EMDStar
     from ..physics.thermostats import Andersen, WhiteNoise
+    from ..physics.vibration import VibratingWall
 
     hertz = Hertz(young=1e5, poisson=0.3, A=1e-3)
     normal = 0.9
@@ -101,7 +106,8 @@ def _example(features: frozenset[str]):
         warnings.simplefilter("ignore")  # e.g. the viscoelastic validity warning of this toy system
         bath = Andersen(kT=1.0, rate=0.1) if "bath" in features else None
         kicks = WhiteNoise(xi0=1.0, interval=0.1) if "noise" in features else None
-        return edmd.Simulation(state, collision=rule, thermostat=bath, forcing=kicks, engine={"debug": "debug" in features})
+        shaker = VibratingWall(amplitude=0.1, omega=1.0, phase=-1.5707963267948966) if "vibration" in features else None
+        return edmd.Simulation(state, collision=rule, thermostat=bath, forcing=kicks, vibration=shaker, engine={"debug": "debug" in features})
 
 
 def compile_features(features: frozenset[str]) -> tuple[str, float, bool]:
@@ -121,4 +127,4 @@ def compile_features(features: frozenset[str]) -> tuple[str, float, bool]:
     if sim.engine.loop is not loop:  # the toy system must have exactly the features asked for
         raise RuntimeError(f"internal error: {sim.engine.loop.name} built for {loop.name}")
     sim.run(max_events=200)
-    return loop.name, time.perf_counter() - start, cached
+    return loop.name + ("+vibration" if "vibration" in features else ""), time.perf_counter() - start, cached
