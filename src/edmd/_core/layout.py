@@ -128,6 +128,8 @@ IPARAMS = (
     IP_KICK, IP_KICK_SEED, IP_LOG_WALLS,
 ) = range(len(IPARAMS))  # fmt: skip
 N_IP = len(IPARAMS)
+#: parameters of what the engine records, not of the physics (observers set them again on a restart)
+OUTPUT_PARAMS = ("log_capacity", "log_walls")
 
 #: float parameters (``fp`` array)
 FPARAMS = (

@@ -139,8 +139,10 @@ def steady(
     columns: list[str] = typer.Option(["temperature", "pressure"], "--column", "-c", help="thermo.csv columns to average (repeat the option)."),
     profile: str = typer.Option(None, "--profile", help="Also write density, temperature and velocity profiles along this axis (x, y or z) from the trajectory (CSV and PNG)."),
     bins: int = typer.Option(20, "--bins", min=1, help="Bins of the profile."),
+    impacts: bool = typer.Option(False, "--impacts", help="Also the vibrating wall's phase at impact (wall_impacts.csv of [output] wall_impacts)."),
 ):
-    """Steady-state averages with blocking error bars (thermo.csv), and profiles along an axis."""
+    """Steady-state averages with blocking error bars (thermo.csv), profiles along an axis, and
+    the impact phases at a vibrating wall."""
     from ..analysis.steady import Profile, SteadyState
     from ..files.atomic import atomic_path
     from .plots import plot_profile, save
@@ -164,8 +166,33 @@ def steady(
                 np.savetxt(tmp, np.column_stack([p.centres, p.density, p.temperature, p.velocity]), fmt="%.17g", delimiter=",", header=head, comments="")
             figure = save(plot_profile(p), out.with_suffix(".png"))
             console.print(f"wrote {out} and {figure.name} ({p.frames} frames)")
+        if impacts:
+            imp = _impact_phases(run_dir, settle)
+            figure = save(imp.plot(), run_dir / "impact_phases.png")
+            console.print(
+                f"{imp.times.size} impacts on the vibrating wall: {imp.rate:.6g} per unit time, mean impact speed "
+                f"{imp.mean_speed:.6g}, most frequent phase {0.5 * (imp.phase_edges[imp.phase_pdf.argmax()] + imp.phase_edges[imp.phase_pdf.argmax() + 1]):.4g} rad; wrote {figure.name}"
+            )
     except (StateError, ValueError, OSError) as exc:
         _fail(str(exc))
+
+
+def _impact_phases(run_dir: Path, settle: float):
+    """:class:`edmd.analysis.ImpactPhases` of a run directory's wall_impacts.csv after ``settle``."""
+    from ..analysis.collisions import ImpactPhases
+    from ..files.impacts import read_wall_impacts
+    from .config import load_config
+
+    cfg = load_config(run_dir / "config.toml")
+    if cfg.vibration is None:
+        raise ValueError(f"{run_dir} has no vibrating wall ([vibration] in its config.toml)")
+    path = run_dir / "wall_impacts.csv"
+    if not path.exists():
+        raise ValueError(f"{path} does not exist: run with [output] wall_impacts = true")
+    rows = read_wall_impacts(path)
+    rows = rows[rows[:, 0] >= settle]
+    log = np.column_stack([rows[:, 0], rows[:, 1], -1.0 - rows[:, 2], rows[:, 3], rows[:, 4]])
+    return ImpactPhases().compute(log, cfg.vibration.build())
 
 
 @app.command()

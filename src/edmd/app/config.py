@@ -368,6 +368,7 @@ class OutputConfig(_Section):
     checkpoint_interval: float | None = Field(None, gt=0, description="simulation time; default: run.output_interval")
     checkpoint_wall_interval: float | None = Field(None, gt=0, description="seconds between checkpoint writes")
     plots: bool = True
+    wall_impacts: bool = Field(False, description="wall_impacts.csv: every impact on a wall (time, particle, wall, speeds)")
 
 
 class Config(_Section):
@@ -586,6 +587,7 @@ checkpoint = true         # checkpoint.gsd: continue with `edmd run --restart DI
 # checkpoint_interval = 10.0       # simulation time between checkpoint points (default: output_interval)
 # checkpoint_wall_interval = 600   # write a point only if this many seconds passed since the last write
 plots = true              # PNG figures at the end of the run (also: `edmd plot DIR`)
+# wall_impacts = false    # wall_impacts.csv: every wall impact (then `edmd steady DIR --impacts`)
 
 # [thermostat]            # a heat bath (edmd integrator only)
 # kind = "andersen"       # each particle's velocity (and spin) drawn anew from Maxwell-Boltzmann at kT

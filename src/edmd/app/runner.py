@@ -23,14 +23,16 @@ from ..run.observer import Observer
 from ..run.simulation import Simulation
 from ..state import State
 from ..files.thermo import Thermo, read_thermo
+from ..files.impacts import WallImpacts
 from ..files.trajectory import Trajectory, read_state, trajectory_run_id, write_state
 
 #: files a run writes into its directory
-RUN_FILES = ("config.toml", "thermo.csv", "trajectory.gsd", "checkpoint.gsd", "summary.json", "error_state.gsd")
+RUN_FILES = ("config.toml", "thermo.csv", "trajectory.gsd", "checkpoint.gsd", "summary.json", "error_state.gsd", "wall_impacts.csv")
 #: the figures and movies edmd writes into a run directory (``edmd plot``, ``edmd movie``); other
 #: images there are the user's: they neither make the directory a run nor are removed with it
 RUN_FIGURES = tuple(
-    f"{stem}.png" for stem in ("temperature", "pressure", "emd_exceptions", "height", "energy", "velocity_distribution", "rdf", "msd", "snapshot")
+    f"{stem}.png"
+    for stem in ("temperature", "pressure", "emd_exceptions", "height", "energy", "velocity_distribution", "rdf", "msd", "snapshot", "impact_phases")
 ) + ("movie.gif", "movie.mp4")
 #: configuration keys that may change when a run is continued (they do not change its physics)
 RESTART_MUTABLE = ("run.until_time", "run.max_events", "run.wall_time", "run.progress", "output.plots")
@@ -98,6 +100,8 @@ def make_observers(cfg: Config, out: Path, run_id: str | None = None) -> list[Ob
         observers.append(Thermo(interval, path=out / "thermo.csv"))
     if o.trajectory:
         observers.append(Trajectory(out / "trajectory.gsd", o.trajectory_interval or interval, run_id=run_id))
+    if o.wall_impacts:
+        observers.append(WallImpacts(interval, out / "wall_impacts.csv"))
     rescale = None if cfg.thermostat is None else cfg.thermostat.updater()
     if rescale is not None:
         observers.append(rescale)
