@@ -189,6 +189,20 @@ def test_single_particle_run_plots_its_height_not_a_temperature(tmp_path):
     assert "N = 1," in figures["height"].get_suptitle()
 
 
+def test_vibrated_bed_plots_its_profiles(tmp_path):
+    """A bed on a vibrating wall: density, temperature and mean velocity along the vibration
+    axis over the second half of the run, densest near the floor."""
+    cfg = load_config(EXAMPLES / "vibrated_bed_2d.toml")
+    cfg.run.until_time, cfg.run.progress = 20.0, False
+    run_directory(cfg, tmp_path)
+    figures = run_figures(tmp_path)
+    assert "profile_y" in figures and "temperature" not in figures
+    density = figures["profile_y"].axes[0].get_lines()[0]
+    y, n = density.get_xdata(), density.get_ydata()
+    assert [ax.get_ylabel() for ax in figures["profile_y"].axes] == ["number density", "granular temperature", "mean v_y"]
+    assert y[np.nanargmax(n)] < y.min() + 0.25 * (y.max() - y.min())
+
+
 def test_elastic_run_compares_the_pressure_with_the_equation_of_state(tmp_path):
     """Elastic hard spheres, eta = 0.3: Z = P/(nT) against Carnahan-Starling Z = 3.97376. For 500
     spheres the mean of the rows after t = 1 (4 time units) scatters by ~1-2 % (test_analysis: 0.5 %

@@ -20,7 +20,7 @@ import numpy as np
 from matplotlib.ticker import NullFormatter
 
 from ..files.atomic import atomic_path
-from ..analysis import MSD, RDF, AlgebraicCooling, HaffLaw, VelocityDistribution, compressibility_factor
+from ..analysis import MSD, RDF, AlgebraicCooling, HaffLaw, Profile, VelocityDistribution, compressibility_factor
 from ..analysis._common import axes, each_state
 from ..analysis.thermal import _thermo_table
 from .config import Config, ConfigError, load_config
@@ -465,7 +465,8 @@ def _read_run(run_dir: Path, traj: Path, frames: int) -> _Run:
 
 
 def _run_kind(cfg: Config | None, n: int | None, gravity) -> str:
-    """``single`` (N = 1), ``emdstar``, ``elastic``, ``granular`` (constant e_n), ``rough``, ``viscoelastic`` or ``other``.
+    """``single`` (N = 1), ``emdstar``, ``vibrated`` (a vibrating wall), ``elastic``, ``granular`` (constant e_n),
+    ``rough``, ``viscoelastic`` or ``other``.
 
     ``other``: no config.toml, the DEM, or gravity on many particles (no homogeneous law applies).
     """
@@ -475,6 +476,8 @@ def _run_kind(cfg: Config | None, n: int | None, gravity) -> str:
         return "other"
     if cfg.collision.rule == "emdstar":
         return "emdstar"
+    if cfg.vibration is not None:
+        return "vibrated"
     if gravity is not None and np.any(gravity != 0):
         return "other"
     return {"inelastic": "granular"}.get(cfg.collision.rule, cfg.collision.rule)
@@ -532,6 +535,10 @@ def _purpose_figure(run: _Run, table, traj: Path) -> tuple[str, object] | None:
         return "pressure", plot_pressure(table, _frames(traj, start=max(frame_count(traj) - 5, 0)))
     if run.kind == "rough":
         return "temperature", plot_rough_temperature(table)
+    if run.kind == "vibrated" and run.first is not None:  # the bed's profiles over the second half of the run
+        axis = run.config.vibration.axis
+        profile = Profile(axis, bins=40).compute(_frames(traj, start=frame_count(traj) // 2))
+        return f"profile_{axis}", plot_profile(profile)
     return "temperature", plot_temperature(table, _cooling_law(run, table))
 
 

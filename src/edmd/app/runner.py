@@ -33,6 +33,7 @@ RUN_FILES = ("config.toml", "thermo.csv", "trajectory.gsd", "checkpoint.gsd", "s
 RUN_FIGURES = tuple(
     f"{stem}.png"
     for stem in ("temperature", "pressure", "emd_exceptions", "height", "energy", "velocity_distribution", "rdf", "msd", "snapshot", "impact_phases")
+    + tuple(f"profile_{axis}" for axis in "xyz")
 ) + ("movie.gif", "movie.mp4")
 #: configuration keys that may change when a run is continued (they do not change its physics)
 RESTART_MUTABLE = ("run.until_time", "run.max_events", "run.wall_time", "run.progress", "output.plots")
