@@ -177,7 +177,7 @@ def test_compile_warms_the_vibrating_wall():
 def test_run_says_when_it_compiles_its_loop(tmp_path, monkeypatch):
     import edmd.run.engine
 
-    monkeypatch.setattr(edmd.run.engine, "in_disk_cache", lambda dispatcher: False)  # as on a fresh install
+    monkeypatch.setattr(edmd.run.engine, "in_disk_cache", lambda dispatcher, arg=None: False)  # as on a fresh install
     monkeypatch.setattr(edmd._core.loop, "_VARIANTS", {})  # and in a fresh process
     cfg = tmp_path / "c.toml"
     cfg.write_text(SMALL.format(dim=2))
@@ -206,3 +206,19 @@ def test_steady_prints_blocked_averages_and_writes_a_profile(tmp_path):
     assert r.exit_code == 2 and "no column 'kinetic'" in r.output
     r = runner.invoke(app, ["steady", str(run), "--settle", "39"])
     assert r.exit_code == 2 and "the error estimate needs at least 32" in r.output
+
+
+def test_a_vibrating_wall_run_says_when_it_compiles(monkeypatch, caplog):
+    # the walls variant compiled for a plain geometry is not the one of a vibrating wall's
+    import logging
+
+    import edmd
+    import edmd.run.engine
+
+    monkeypatch.setattr(edmd._core.loop, "_VARIANTS", {})  # a fresh process (the disk cache is looked at)
+    seen = []
+    monkeypatch.setattr(edmd.run.engine, "in_disk_cache", lambda dispatcher, arg=None: seen.append(len(arg[1])) or False)
+    caplog.set_level(logging.INFO, logger="edmd.compile")
+    state = edmd.random_packing(20, 0.05, dim=2, seed=1, periodic=[True, False])
+    edmd.Simulation(state, vibration=edmd.VibratingWall(0.1, 1.0, phase=-1.5707963267948966, axis="y"))
+    assert seen == [16] and any("walls+vibration runs" in m for m in caplog.messages)

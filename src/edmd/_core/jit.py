@@ -44,16 +44,22 @@ leaf = njit(cache=True, forceinline=True, error_model="numpy", **_NO_RC)
 jit_alloc = njit(cache=True, error_model="numpy")
 
 
-def in_disk_cache(dispatcher) -> bool:
-    """Whether Numba's on-disk cache holds compiled code of ``dispatcher`` (any signature).
+def in_disk_cache(dispatcher, arg: tuple[int, object] | None = None) -> bool:
+    """Whether Numba's on-disk cache holds compiled code of ``dispatcher`` (any signature, or
+    one whose argument ``arg[0]`` has the type of the value ``arg[1]``).
 
     Closure values are part of the cache key, so for a loop variant this tells whether that
-    feature set was compiled before. ``False`` whenever it cannot tell (a Numba without this
-    private cache interface, an unreadable cache): the caller then expects to compile.
+    feature set was compiled before; ``arg`` tells apart the signatures of one variant (the
+    geometry of a vibrating wall is a longer tuple). ``False`` whenever it cannot tell (a Numba
+    without this private cache interface, an unreadable cache): the caller then expects to compile.
     """
     try:
         cache = dispatcher._cache
         tail = cache._index_key(None, dispatcher.targetctx.codegen())[1:]
-        return any(key[1:] == tail for key in cache._cache_file._load_index())
+        keys = [key for key in cache._cache_file._load_index() if key[1:] == tail]
+        if arg is not None:
+            wanted = dispatcher.typeof_pyval(arg[1])
+            keys = [key for key in keys if key[0][arg[0]] == wanted]
+        return bool(keys)
     except Exception:  # pragma: no cover - depends on Numba's private cache layout
         return False

@@ -98,6 +98,10 @@ def _log_collision(clog, cnt, log_cap, t, i, j, vn, vt):
         cnt[L.C_LOG] = r + 1
 
 
+#: position of ``geo`` among the arguments of ``run_events`` (its type tells the signatures of a variant apart)
+GEO_ARG = 5
+
+
 class Loop(NamedTuple):
     """One compiled variant of the event loop and its set-up (see :func:`loop_variant`)."""
 

@@ -20,7 +20,7 @@ import warnings
 
 from .._core import layout as L
 from .._core.jit import in_disk_cache
-from .._core.loop import loop_variant
+from .._core.loop import GEO_ARG, loop_variant
 
 FEATURES = ("walls", "rough", "viscoelastic", "soft", "emdstar", "bath", "noise", "vibration", "debug")
 
@@ -121,7 +121,8 @@ def compile_features(features: frozenset[str]) -> tuple[str, float, bool]:
         'plain'
     """
     loop = _variant(features)
-    cached = in_disk_cache(loop.run_events)
+    geo = (0.0,) * (16 if "vibration" in features else 10)  # (a vibrating wall's geometry is longer)
+    cached = in_disk_cache(loop.run_events, (GEO_ARG, geo))
     start = time.perf_counter()
     sim = _example(features)
     if sim.engine.loop is not loop:  # the toy system must have exactly the features asked for

@@ -16,13 +16,14 @@ import logging
 import math
 
 import numpy as np
+from numba import typeof
 
 from .._core import layout as L
 from .._core.bath import bath_schedule
 from .._core.bundles import Drive, Lists, Particles, new_events
 from .._core.cells import new_grid
 from .._core.jit import in_disk_cache
-from .._core.loop import loop_variant
+from .._core.loop import GEO_ARG, loop_variant
 from .._core.queue import calendar_shape, new_queue, queue_build
 from .._core.snapshot import stream_all
 from ..physics import collide
@@ -137,8 +138,12 @@ class Engine:
             thermostat is not None,
             forcing is not None,
         )
-        if not self.loop.run_events.signatures and not in_disk_cache(self.loop.run_events):
-            log.info("compiling the event loop for %s runs (once; cached afterwards, see `edmd compile`)", self.loop.name)
+        if vibration is not None:  # (load sets it again; the compile notice needs its type now)
+            self.geo = L.make_geo(self.box, self.half, self.grav, vibration.geo_entries(float(state.time)))
+        run_events, geo_type = self.loop.run_events, typeof(self.geo)
+        if not any(sig.args[GEO_ARG] == geo_type for sig in run_events.nopython_signatures) and not in_disk_cache(run_events, (GEO_ARG, self.geo)):
+            name = self.loop.name + ("+vibration" if vibration is not None else "")
+            log.info("compiling the event loop for %s runs (once; cached afterwards, see `edmd compile`)", name)
         self.load(state)
 
     # ------------------------------------------------------------------ set-up
