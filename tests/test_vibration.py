@@ -324,3 +324,19 @@ def test_lists_and_cells_agree_with_a_vibrating_wall(dim, side):
     (pa, wa, ca), (pb, wb, cb) = runs
     assert (wa, ca) == (wb, cb) and wa > 20
     assert np.abs(pa - pb).max() < 1e-7
+
+
+def test_rough_bed_on_a_sawtooth_keeps_its_energy_balance(dim):
+    # rough spheres and a rough wall: spins are kicked at the moving wall too (the wall's
+    # tangential velocity is zero); the balance includes the rotational energy
+    periodic = [True] * (dim - 1) + [False]
+    s = edmd.maxwell_boltzmann(edmd.random_packing(150, 0.05, dim=dim, periodic=periodic, seed=3), 1.0, seed=4)
+    grav = [0.0] * (dim - 1) + [-1.0]
+    wall = VibratingWall(amplitude=0.5, omega=3.0, phase=-math.pi, axis="xyz"[dim - 1], wave="sawtooth")
+    rule = edmd.collide.TC(edmd.collide.Rough(0.9, beta=0.3), 1e-3)
+    sim = edmd.Simulation(s, collision=rule, walls=edmd.collide.Wall(e_n=0.8, beta=0.2), gravity=grav, vibration=wall)
+    thermo = sim.add(edmd.Thermo(1.0))
+    sim.run(until_time=40.0)
+    balance = np.array([r["energy_balance"] for r in thermo.rows])
+    assert np.ptp(balance) < 1e-12 * sim.totals().energy_input
+    assert sim.state.rotational_energy() > 0 and sim.totals().wall_collisions > 1000
