@@ -81,15 +81,24 @@ def wave_value(wave, theta):
     """
     if wave == WAVE_SINE:
         return math.sin(theta), math.cos(theta)
-    q = theta / TWO_PI
+    return _linear_wave(wave, _cycle(wave, theta))
+
+
+@leaf
+def _cycle(wave, theta):
+    """Where a triangle or sawtooth wave is in its cycle: the fraction ``q`` in ``[0, 1)``, counted
+    from the start of its rising piece (where ``w = -1``)."""
+    q = theta / TWO_PI + (0.25 if wave == WAVE_TRIANGLE else 0.5)
+    return q - math.floor(q)
+
+
+@leaf
+def _linear_wave(wave, q):
+    """``w`` and ``dw/dtheta`` of a triangle or sawtooth wave at cycle fraction ``q`` (:func:`_cycle`)."""
     if wave == WAVE_TRIANGLE:
-        q += 0.25
-        q -= math.floor(q)
         if q < 0.5:
             return -1.0 + 4.0 * q, 4.0 / TWO_PI
         return 3.0 - 4.0 * q, -4.0 / TWO_PI
-    q += 0.5
-    q -= math.floor(q)
     return -1.0 + 2.0 * q, 2.0 / TWO_PI
 
 
@@ -212,18 +221,14 @@ def _sine_segment(theta, c, tiny):
 def _piece(wave, theta, tiny):
     """The linear piece of a triangle or sawtooth wave at phase ``theta``: the phase left in it,
     ``w`` and ``dw/dtheta`` there. A piece ending within ``tiny`` (round-off) is taken as ended."""
-    q = theta / TWO_PI + (0.25 if wave == WAVE_TRIANGLE else 0.5)
-    q -= math.floor(q)
+    q = _cycle(wave, theta)
     ends = (0.5, 1.0) if wave == WAVE_TRIANGLE else (1.0, 1.0)
     end = ends[0] if q < ends[0] else ends[1]
     if end - q < tiny / TWO_PI:
         q = 0.0 if end == 1.0 else end
         end = ends[0] if q < ends[0] else ends[1]
-    if wave == WAVE_TRIANGLE:
-        rising = q < 0.5
-        w = -1.0 + 4.0 * q if rising else 3.0 - 4.0 * q
-        return (end - q) * TWO_PI, w, (4.0 if rising else -4.0) / TWO_PI
-    return (end - q) * TWO_PI, -1.0 + 2.0 * q, 2.0 / TWO_PI
+    w, dw = _linear_wave(wave, q)
+    return (end - q) * TWO_PI, w, dw
 
 
 @jit

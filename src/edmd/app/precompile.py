@@ -121,7 +121,7 @@ def compile_features(features: frozenset[str]) -> tuple[str, float, bool]:
         'plain'
     """
     loop = _variant(features)
-    geo = (0.0,) * (16 if "vibration" in features else 10)  # (a vibrating wall's geometry is longer)
+    geo = (0.0,) * (L.G_WALL_PHASE + 1 if "vibration" in features else L.G_ON + 1)  # (a vibrating wall's geometry is longer)
     cached = in_disk_cache(loop.run_events, (GEO_ARG, geo))
     start = time.perf_counter()
     sim = _example(features)

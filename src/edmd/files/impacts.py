@@ -9,7 +9,6 @@ vibrating wall into the distribution of its phase at impact (``edmd steady RUN -
 from __future__ import annotations
 
 import csv
-import io
 import os
 
 import numpy as np
@@ -76,12 +75,13 @@ class WallImpacts(Observer):
         """Continue from a checkpoint: the file is cut back to its rows then (atomically)."""
         super().restore_data(data)
         self.rows = int(data["rows"])
-        lines = open(self.path, newline="").read().splitlines(keepends=True) if os.path.exists(self.path) else []
+        lines = []
+        if os.path.exists(self.path):
+            with open(self.path, newline="") as f:
+                lines = f.read().splitlines(keepends=True)
         if len(lines) < self.rows + 1 and self.rows:
             raise ValueError(f"{self.path} holds {max(len(lines) - 1, 0)} wall impacts, fewer than the checkpoint's {self.rows}")
-        buf = io.StringIO(newline="")
-        buf.write("".join(lines[: self.rows + 1]) if lines else ",".join(COLUMNS) + "\r\n")
-        write_atomic(self.path, buf.getvalue())
+        write_atomic(self.path, "".join(lines[: self.rows + 1]) if lines else ",".join(COLUMNS) + "\r\n")
 
     def close(self):
         self._flush()

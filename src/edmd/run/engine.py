@@ -97,7 +97,8 @@ class Engine:
             if g.shape != (self.dim,) or not np.all(np.isfinite(g)):
                 raise ValueError(f"gravity must be {self.dim} finite numbers, got {gravity!r}")
             self.grav[: self.dim] = g
-        self.geo = L.make_geo(self.box, self.half, self.grav)
+        self.vibration = vibration
+        self.geo = self._geometry(float(state.time))
         self.fp = np.zeros(L.N_FP)
         self.ip = np.zeros(L.N_IP, np.int64)
         self.rule = collide.Inelastic(1.0) if rule is None else rule
@@ -111,7 +112,6 @@ class Engine:
                 driver.pack(self.fp, self.ip)
         if forcing is not None and self.emd_rule is not None:
             raise StateError("white-noise forcing and eMD* cannot be combined: a kick would break a pending soft contact")
-        self.vibration = vibration
         if vibration is not None:
             self._check_vibration(state, vibration)
         self.etab = collide.viscoelastic_table()[0]
@@ -138,8 +138,6 @@ class Engine:
             thermostat is not None,
             forcing is not None,
         )
-        if vibration is not None:  # (load sets it again; the compile notice needs its type now)
-            self.geo = L.make_geo(self.box, self.half, self.grav, vibration.geo_entries(float(state.time)))
         run_events, geo_type = self.loop.run_events, typeof(self.geo)
         if not any(sig.args[GEO_ARG] == geo_type for sig in run_events.nopython_signatures) and not in_disk_cache(run_events, (GEO_ARG, self.geo)):
             name = self.loop.name + ("+vibration" if vibration is not None else "")
@@ -183,6 +181,11 @@ class Engine:
             ball = (4.0 / 3.0 * math.pi * reach**3) if self.dim == 3 else (math.pi * reach**2)
             self.list_capacity = max(self.list_capacity, int(1.6 * n_density * ball) + 8)
 
+    def _geometry(self, origin: float) -> tuple:
+        """The ``geo`` tuple for local times counted from ``origin`` (a vibrating wall's phase depends on it)."""
+        wall = None if self.vibration is None else self.vibration.geo_entries(origin)
+        return L.make_geo(self.box, self.half, self.grav, wall)
+
     def _check_vibration(self, state: State, vib):
         k = vib.axis_index
         if k >= self.dim or self.periodic[k]:
@@ -218,10 +221,9 @@ class Engine:
         if state.n != self.n or state.dim != self.dim:
             raise StateError("a loaded state must have the same number of particles and dimension")
         self.t_origin = float(state.time)
-        if self.vibration is not None:
-            if new:  # (the engine's own states touch the wall to round-off of the re-based phase)
-                self._vibration_clear(state)
-            self.geo = L.make_geo(self.box, self.half, self.grav, self.vibration.geo_entries(self.t_origin))
+        if self.vibration is not None and new:  # (the engine's own states touch the wall to round-off of the re-based phase)
+            self._vibration_clear(state)
+        self.geo = self._geometry(self.t_origin)
         n = self.n
         pos = state.points
         order = self._spatial_order(pos)
