@@ -1,13 +1,16 @@
-"""Write the checkpoint fixture of ``tests/test_checkpoint_migration.py`` (run once, from the code whose
-checkpoint layout the fixture freezes; the files are committed, this script documents how).
+"""Write the checkpoint fixtures of ``tests/test_checkpoint_migration.py`` (each run once, from the code
+whose checkpoint layout it freezes; the files are committed, this script documents how).
 
-    python tests/data/make_checkpoint_fixture.py
+    python tests/data/make_checkpoint_fixture.py NAME
 
-A rough, TC, walled granular gas under gravity (every rule parameter, wall law and accumulator in
-use) is checkpointed at t = 1 and its state at t = 2 is saved: loading the checkpoint with any later
-edmd and running to t = 2 must give that state bit for bit.
+``v1`` (checkpoint format 1): a rough, TC, walled granular gas under gravity (every rule parameter,
+wall law and accumulator in use). ``viscoelastic`` (before the one Hertz material replaced the
+``NORMAL_VISCO`` law): viscoelastic spheres and walls under gravity. Each is checkpointed at t = 1
+and its state at t = 2 is saved: loading the checkpoint with any later edmd and running to t = 2
+must reach that state.
 """
 
+import sys
 from pathlib import Path
 
 import edmd
@@ -25,15 +28,26 @@ def fixture_simulation() -> edmd.Simulation:
     return edmd.Simulation(state, collision=rule, walls=collide.Wall(e_n=0.9, beta=-0.5), gravity=[0.0, 0.0, -0.5])
 
 
-def main():
-    sim = fixture_simulation()
-    sim.add(Checkpoint(HERE / "checkpoint_v1.gsd", interval=1.0))
+def viscoelastic_simulation() -> edmd.Simulation:
+    state = edmd.random_packing(100, 0.15, dim=3, periodic=[True, True, False], seed=21)
+    state = edmd.maxwell_boltzmann(state, 1.0, seed=22)
+    material = collide.Viscoelastic(young=1e4, poisson=0.3, A=1e-3)
+    return edmd.Simulation(state, collision=material, walls=collide.Wall(e_n=material), gravity=[0.0, 0.0, -0.2])
+
+
+FIXTURES = {"v1": ("checkpoint_v1", fixture_simulation), "viscoelastic": ("checkpoint_viscoelastic", viscoelastic_simulation)}
+
+
+def main(name: str):
+    stem, make = FIXTURES[name]
+    sim = make()
+    sim.add(Checkpoint(HERE / f"{stem}.gsd", interval=1.0))
     sim.run(until_time=1.0)
-    frozen = (HERE / "checkpoint_v1.gsd").read_bytes()  # the point at t = 1 (the run goes on writing)
+    frozen = (HERE / f"{stem}.gsd").read_bytes()  # the point at t = 1 (the run goes on writing)
     sim.run(until_time=2.0)
-    (HERE / "checkpoint_v1.gsd").write_bytes(frozen)
-    write_state(HERE / "checkpoint_v1_continued.gsd", sim.state, sim.totals())
+    (HERE / f"{stem}.gsd").write_bytes(frozen)
+    write_state(HERE / f"{stem}_continued.gsd", sim.state, sim.totals())
 
 
 if __name__ == "__main__":
-    main()
+    main(sys.argv[1])
