@@ -54,7 +54,7 @@ def main():
     state = initial_state()
     runs = {
         "MD": sample(edmd.DEMSimulation(state, CONTACT, steps_per_contact=4000)),
-        "classic EDMD": sample(edmd.Simulation(state, collision=CONTACT.restitution_rule())),
+        "classic EDMD": sample(edmd.Simulation(state, collision=CONTACT)),
         "eMD*": sample(edmd.Simulation(state, collision=EMDStar(CONTACT, tables="exact"))),
     }
     times = np.linspace(0.0, T_END, SAMPLES)

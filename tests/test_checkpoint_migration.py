@@ -12,9 +12,9 @@ import gsd.hoomd
 import numpy as np
 import pytest
 
-from edmd import Simulation, lattice, maxwell_boltzmann
+from edmd import Simulation, collide, lattice, maxwell_boltzmann
 from edmd._core import layout as L
-from edmd.files.checkpoint import Checkpoint, CheckpointError, load_checkpoint, read_checkpoint
+from edmd.files.checkpoint import Checkpoint, CheckpointError, engine_arrays, load_checkpoint, read_checkpoint
 from edmd.files.trajectory import read_state
 
 DATA = Path(__file__).parent / "data"
@@ -102,3 +102,24 @@ def test_a_changed_parameter_is_named(tmp_path):
     _edit_checkpoint(tmp_path / "c.gsd", tmp_path / "skin.gsd", other_skin)
     with pytest.raises(CheckpointError, match=r"differ from the saved ones \(skin\)"):
         load_checkpoint(tmp_path / "skin.gsd", [Checkpoint(tmp_path / "x.gsd", interval=1.0)])
+
+
+def test_a_viscoelastic_checkpoint_continues_as_the_hertz_material(tmp_path):
+    """Before one class per material, viscoelastic spheres had a law of their own (``NORMAL_VISCO``,
+    with ``visco_k``/``visco_a``): such a checkpoint loads as the Hertz law (``NORMAL_SOFT``) and
+    reaches the state the old code reached. The new law computes the same delta in another
+    operation order (physics.md §2.2.2 through the contact scales of §4.4), so the continuation
+    agrees to round-off amplified over ~300 collisions, not bit for bit."""
+    data = read_checkpoint(DATA / "checkpoint_viscoelastic.gsd")
+    arrays = engine_arrays(data)
+    assert arrays["ip"][L.IP_NORMAL] == arrays["ip"][L.IP_WALL_NORMAL] == L.NORMAL_SOFT
+    assert arrays["fp"][L.FP_VISCO_K] == 0.0 and arrays["fp"][L.FP_SOFT_B] == 1.5e-3
+    sim = load_checkpoint(DATA / "checkpoint_viscoelastic.gsd", [Checkpoint(tmp_path / "ck.gsd", interval=1.0)])
+    assert sim.engine.rule == collide.Viscoelastic(young=1e4, poisson=0.3, A=1e-3) == sim.engine.wall.e_n
+    sim.run(until_time=2.0)
+    then, now = read_state(DATA / "checkpoint_viscoelastic_continued.gsd"), sim.state
+    with gsd.hoomd.open(DATA / "checkpoint_viscoelastic_continued.gsd") as f:
+        log = f[0].log
+    assert sim.collisions == int(log["collisions"][0]) and sim.events == int(log["events"][0])
+    assert np.allclose(now.position, then.position, rtol=0, atol=1e-12)
+    assert np.allclose(now.velocity, then.velocity, rtol=0, atol=1e-12)

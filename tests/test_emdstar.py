@@ -127,7 +127,7 @@ def test_classic_edmd_differs_from_emd_star(rng):
     r0, v0 = random_contact(rng, 3, R, 2.0, 0.7)
     state = two_body_state(r0, v0, 3, 0.25)
     emd = Simulation(state, collision=EMDStar(contact, tables="exact"))
-    classic = Simulation(state, collision=contact.restitution_rule())
+    classic = Simulation(state, collision=contact)  # (the material as the instantaneous rule)
     for sim in (emd, classic):
         sim.run(until_time=1.0)
     gap = np.abs(emd.state.unwrapped_position - classic.state.unwrapped_position).max()
@@ -215,7 +215,7 @@ def test_walls_use_the_contact_law(dim):
     state = State(position=pos, velocity=vel, radius=0.5, mass=1.0, box=[4.0] * dim, periodic=[False] + [True] * (dim - 1))
     sim = Simulation(state, collision=EMDStar(contact))
     sim.run(until_time=1.0)
-    expected = Wall(e_n=contact.restitution_rule())
+    expected = Wall(e_n=contact)
     ref = Simulation(state, collision=Inelastic(1.0), walls=expected)
     ref.run(until_time=1.0)
     assert sim.state.velocity[0, 0] == pytest.approx(ref.state.velocity[0, 0], rel=1e-12)
@@ -281,7 +281,7 @@ def gas_comparison(model, dim, eta, t_end, steps):
     state = edmd.maxwell_boltzmann(edmd.random_packing(1000, eta, dim=dim, seed=4), 1.0, seed=5)
     if model == "hertz":  # t_c ~ 0.01, e_n ~ 0.9 at the thermal speed
         contact = Hertz(young=2.5e6, poisson=0.3, A=2e-4)
-        classic = contact.restitution_rule()
+        classic = contact  # (the material as the instantaneous rule)
     else:
         contact = LinearDashpot.from_restitution(0.9, k=4.9e4, mass=1.0)
         classic = contact.restitution_rule(1.0)

@@ -12,7 +12,7 @@ from edmd._core.jit import in_disk_cache
 from edmd._core.loop import loop_variant
 
 PLAIN = (False, False, False, L.NORMAL_CONST)
-FEATURE_CODE = {"_debug_check", "emd_contact", "finish_contact", "collide_wall", "execute_b", "is_pending"}
+FEATURE_CODE = {"_debug_check", "emd_contact", "finish_contact", "collide_wall", "execute_b", "is_pending", "well_event"}
 
 
 def referenced_globals(func) -> set[str]:
@@ -40,6 +40,7 @@ def test_plain_hard_spheres_compile_no_feature_code():
         ((False, False, False, L.NORMAL_CONST, True), {"_debug_check"}),
         ((False, True, False, L.NORMAL_SOFT), {"emd_contact", "execute_b"}),
         ((True, True, False, L.NORMAL_SOFT), {"collide_wall", "emd_contact", "finish_contact", "execute_b", "is_pending"}),
+        ((False, False, False, L.NORMAL_CONST, False, False, False, True), {"well_event"}),
     ],
 )
 def test_each_feature_brings_its_own_code(features, code):

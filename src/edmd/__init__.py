@@ -21,6 +21,7 @@ from .app.sweeps import SweepError, SweepResult, SweepSpec, sweep, sweep_summary
 from .files.thermo import Thermo, read_thermo
 from .physics.thermostats import Andersen, WhiteNoise
 from .physics.vibration import VibratingWall
+from .physics.wells import SquareWell
 from .files.trajectory import Trajectory, read_state, write_state
 from .run.updaters import Updater, VelocityRescale
 
@@ -51,6 +52,7 @@ __all__ = [
     "Updater",
     "VelocityRescale",
     "VibratingWall",
+    "SquareWell",
     "WhiteNoise",
     "collide",
     "lattice",

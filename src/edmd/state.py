@@ -67,6 +67,9 @@ class State:
             where no contact is pending; physics.md §4.8).
         pending_until: ``(N,)`` time of each particle's pending eMD* B event (``inf``: none).
         pending_partner: ``(N,)`` partner of the pending contact (``-1``: none).
+        captured_pairs: ``(M, 2)`` pairs inside each other's square well (:class:`edmd.SquareWell`),
+            each pair once as ``(i, j)``, ``i < j``, sorted; ``None``: not recorded (a square-well
+            run then captures the pairs closer than the well's edge).
 
     While eMD* contacts are pending, ``velocity`` is the actual flight velocity (the pair's
     centre-of-mass velocity) and observables (:meth:`kinetic_energy`, :meth:`temperature`,
@@ -94,6 +97,7 @@ class State:
     pending_velocity: np.ndarray | None = None
     pending_until: np.ndarray | None = None
     pending_partner: np.ndarray | None = None
+    captured_pairs: np.ndarray | None = None
     check_overlaps: dataclasses.InitVar[bool] = True
 
     def __post_init__(self, check_overlaps: bool = True):
@@ -132,9 +136,27 @@ class State:
             raise StateError(f"last_collision must be {n} times (or -inf), got shape {last.shape}")
         self.last_collision = last
         self._set_pending(n, d)
+        self._set_captured(n)
         self._check_values()
         if check_overlaps and not self.has_pending:
             self.check_no_overlap()
+
+    def _set_captured(self, n):
+        if self.captured_pairs is None:
+            return
+        pairs = np.asarray(self.captured_pairs)
+        if pairs.size == 0:
+            pairs = pairs.reshape(0, 2)
+        if pairs.ndim != 2 or pairs.shape[1] != 2 or not (pairs.size == 0 or np.issubdtype(pairs.dtype, np.integer)):
+            raise StateError(f"captured_pairs must be integer pairs of shape (M, 2), got {pairs.dtype} {pairs.shape}")
+        pairs = np.sort(pairs.astype(np.int64), axis=1)
+        bad = np.flatnonzero((pairs[:, 0] < 0) | (pairs[:, 1] >= n) | (pairs[:, 0] == pairs[:, 1]))
+        if bad.size:
+            raise StateError(f"captured pair {pairs[bad[0]].tolist()} is not two distinct particles of [0, {n})")
+        pairs = pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
+        if len(pairs) > 1 and np.any(np.all(pairs[1:] == pairs[:-1], axis=1)):
+            raise StateError("captured_pairs lists a pair twice")
+        self.captured_pairs = pairs
 
     def _set_pending(self, n, d):
         dv = np.zeros((n, d)) if self.pending_velocity is None else self.pending_velocity

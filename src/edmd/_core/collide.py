@@ -24,7 +24,7 @@ memory) is only kept when the TC model is on.
 import math
 
 from . import layout as L
-from .layout import NORMAL_CONST, NORMAL_SOFT, TANGENT_COULOMB, TANGENT_SMOOTH
+from .layout import NORMAL_CONST, TANGENT_COULOMB, TANGENT_SMOOTH
 from .contact import MODEL_HERTZ, contact_scales
 from .jit import hot, leaf
 from .predict import wrap3
@@ -62,23 +62,20 @@ def eps_viscoelastic(delta, etab, inv_ds):
 def normal_restitution(law, e_const, vn, mu_red, r_eff, fp, ip, etab):
     r"""Normal restitution of an impact at normal speed ``vn``.
 
-    Viscoelastic (physics.md §2.2.2): :math:`\rho = \frac{2Y\sqrt{R_{\rm eff}}}{3(1-\nu^2)}`,
-    :math:`\beta_v = \tfrac32 A(\rho/\mu)^{2/5}`, :math:`e_n = \varepsilon(\beta_v v_n^{1/5})`.
-    ``NORMAL_SOFT``: the central :math:`e_n(v_n)` of the soft contact law ``ip[IP_EMD_MODEL]``
-    with constants ``fp[FP_SOFT_A/B]`` (Hertz as above, dashpot :math:`e^{-\zeta_d\omega_0t_c}` of §2.2.1),
-    the instantaneous rule of eMD* fallbacks and walls (physics.md §4.8).
+    ``NORMAL_CONST``: ``e_const``. ``NORMAL_SOFT``: the central :math:`e_n(v_n)` of the contact law
+    ``ip[IP_EMD_MODEL]`` with constants ``fp[FP_SOFT_A/B]`` (the one material of a run, physics.md
+    §2.2): viscoelastic Hertz spheres, :math:`\rho = \frac{2Y\sqrt{R_{\rm eff}}}{3(1-\nu^2)}`,
+    :math:`e_n = \varepsilon(\delta)` with :math:`\delta = \tfrac32 A(\rho/\mu)^{2/5}v_n^{1/5}` (§2.2.2), or the
+    dashpot's :math:`e^{-\zeta_d\omega_0t_c}` (§2.2.1). It is also the instantaneous rule of eMD*
+    fallbacks and walls (physics.md §4.8).
     """
     if law == NORMAL_CONST:
         return e_const
-    if law == NORMAL_SOFT:
-        model = ip[L.IP_EMD_MODEL]
-        c, _lam, _ts, _ls = contact_scales(model, fp[L.FP_SOFT_A], fp[L.FP_SOFT_B], mu_red, r_eff, 1.0, vn)
-        if model == MODEL_HERTZ:
-            return eps_viscoelastic(c, etab, fp[L.FP_ETAB_INV])
-        return dashpot_central(0.5 * c)[1]
-    rho = fp[L.FP_VISCO_K] * math.sqrt(r_eff)
-    delta = 1.5 * fp[L.FP_VISCO_A] * (rho / mu_red) ** 0.4 * vn**0.2
-    return eps_viscoelastic(delta, etab, fp[L.FP_ETAB_INV])
+    model = ip[L.IP_EMD_MODEL]
+    c, _lam, _ts, _ls = contact_scales(model, fp[L.FP_SOFT_A], fp[L.FP_SOFT_B], mu_red, r_eff, 1.0, vn)
+    if model == MODEL_HERTZ:
+        return eps_viscoelastic(c, etab, fp[L.FP_ETAB_INV])
+    return dashpot_central(0.5 * c)[1]
 
 
 @leaf

@@ -20,11 +20,17 @@ AUX_BATH = 65  # Andersen heat bath: the particle's velocity is drawn anew (see 
 # Dispatch is explicit: every kind the loop knows is tested for, and any other code stops the
 # run with ST_BAD_EVENT (a new kind must be given its own branch, it can never fall into another's).
 
+# kinds of pair events (Events.pair_k; only runs with a square well have kinds other than core)
+PAIR_CORE = 0  # the hard cores touch: the collision rule
+PAIR_CAPTURE = 1  # an outside pair reaches the well's edge (wells.py)
+PAIR_EDGE = 2  # a captured pair reaches the edge from inside: released, or bounced back
+
 # outcomes of a pair reaching contact under eMD* (emdstar.emd_contact)
 CONTACT_LIST_FULL = -1  # a neighbour list ran out of capacity while re-binning the pair
 CONTACT_DISCARDED = 0  # exception b) left the pair separating: nothing happens
 CONTACT_SOFT = 1  # an A event: the pair was relocated, its B events are pending
 CONTACT_INSTANT = 2  # the instantaneous rule (exception a, overlaps, a failed solve)
+CONTACT_WELL = 3  # a square-well event (capture, release, bounce): no collision
 
 # global timers: calendar entry N + TIMER_* (see forcing.py)
 TIMER_KICK = 0  # white-noise forcing
@@ -69,10 +75,14 @@ COUNTERS = (
     "bath_events",  # Andersen heat bath: velocities drawn anew
     "kicks",  # white-noise forcing: kicks of the whole system
     "kick_next",  # index of the next kick (carried across reloads: a reload at a kick's time must not repeat it)
+    "well_captures",  # square well: pairs entering the well
+    "well_releases",  # captured pairs leaving it
+    "well_bounces",  # captured pairs reflected at the edge (too slow to escape)
 )
 (
     C_EVENTS, C_COLL, C_STALE, C_AUX, C_REBUILD, C_WALL, C_LOG, C_ZENO_RUN, C_BAD_I, C_BAD_J,
     C_TC_ELASTIC, C_EMD_A, C_EMD_EXC_A, C_EMD_EXC_B, C_EMD_FALLBACK, C_BATH, C_KICKS, C_KICK_NEXT,
+    C_WELL_IN, C_WELL_OUT, C_WELL_BOUNCE,
 ) = range(len(COUNTERS))  # fmt: skip
 N_COUNTERS = len(COUNTERS)
 
@@ -121,11 +131,12 @@ IPARAMS = (
     "kick",  # white-noise forcing on
     "kick_seed",  # its random seed
     "log_walls",  # the collision log also records wall impacts
+    "well",  # square-well attraction on (wells.py)
 )
 (
     IP_MODE, IP_LOG_CAP, IP_MAXSTALL, IP_DEBUG, IP_NORMAL, IP_TANGENT, IP_TC, IP_WALL_NORMAL,
     IP_WALL_TANGENT, IP_WALLS, IP_EMD, IP_EMD_MODEL, IP_EMD_TABLE, IP_EMD_COMM, IP_BATH, IP_BATH_SEED,
-    IP_KICK, IP_KICK_SEED, IP_LOG_WALLS,
+    IP_KICK, IP_KICK_SEED, IP_LOG_WALLS, IP_WELL,
 ) = range(len(IPARAMS))  # fmt: skip
 N_IP = len(IPARAMS)
 #: parameters of what the engine records, not of the physics (observers set them again on a restart)
@@ -139,8 +150,8 @@ FPARAMS = (
     "beta",  # tangential restitution (beta = -e_t)
     "mu",  # Coulomb friction coefficient (TANGENT_COULOMB)
     "tc_duration",  # TC model duration
-    "visco_k",  # viscoelastic: rho = K sqrt(R_eff), K = 2Y / (3 (1 - nu^2))
-    "visco_a",  # viscoelastic dissipative time constant A
+    "visco_k",  # retired (the NORMAL_VISCO law's K = 2Y / (3 (1 - nu^2)), now soft_a): read from old checkpoints only
+    "visco_a",  # retired (NORMAL_VISCO's A, now soft_b = 3A/2): read from old checkpoints only
     "visco_table_inv_step",  # 1 / grid step of the eps(s = sqrt(delta)) table
     "wall_e_n",
     "wall_beta",
@@ -154,11 +165,13 @@ FPARAMS = (
     "kick_xi0",  # white-noise forcing: strength (variance xi0^2 per unit time and component)
     "kick_interval",  # time between kicks
     "kick_start",  # absolute time of kick 0
+    "well_width",  # square well: its edge is at (1 + well_width) sigma_ij (0: no well)
+    "well_depth",  # and its depth epsilon (energy)
 )
 (
     FP_SKIN, FP_DEBUG_TOL, FP_EN, FP_BETA, FP_MU, FP_TC, FP_VISCO_K, FP_VISCO_A, FP_ETAB_INV,
     FP_WALL_EN, FP_WALL_BETA, FP_WALL_MU, FP_MTOT, FP_SOFT_A, FP_SOFT_B, FP_EMD_RTOL, FP_BATH_KT,
-    FP_BATH_RATE, FP_KICK_XI0, FP_KICK_INTERVAL, FP_KICK_START,
+    FP_BATH_RATE, FP_KICK_XI0, FP_KICK_INTERVAL, FP_KICK_START, FP_WELL_WIDTH, FP_WELL_DEPTH,
 ) = range(len(FPARAMS))  # fmt: skip
 N_FP = len(FPARAMS)
 
@@ -167,8 +180,9 @@ LAYOUT = {"counters": COUNTERS, "accumulators": ACCUMULATORS, "fp": FPARAMS, "ip
 #: checkpoint format 1 stored the arrays without names (16, 18, 16, 16 slots): these were theirs
 FORMAT1_LAYOUT = {"counters": COUNTERS[:15], "accumulators": ACCUMULATORS[:18], "fp": FPARAMS[:16], "ip": IPARAMS[:14]}
 
-NORMAL_CONST, NORMAL_VISCO = 0, 1
-NORMAL_SOFT = 2  # central e_n(v_n) of the soft contact law (IP_EMD_MODEL, FP_SOFT_A/B)
+NORMAL_CONST = 0
+NORMAL_VISCO = 1  # retired: the viscoelastic material is the Hertz law of NORMAL_SOFT (old checkpoints are migrated)
+NORMAL_SOFT = 2  # central e_n(v_n) of the run's contact law (IP_EMD_MODEL, FP_SOFT_A/B)
 TANGENT_SMOOTH, TANGENT_BETA, TANGENT_COULOMB = 0, 1, 2
 #: the tangential law of smooth collisions: ``(code, beta, mu)``
 SMOOTH = (TANGENT_SMOOTH, -1.0, 0.0)

@@ -22,18 +22,20 @@ from .collide import collide_pair, collide_wall
 from .emdstar import emd_contact, execute_b, finish_contact, is_pending
 from .forcing import white_noise_kick
 from .jit import hot, jit
-from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTACT_SOFT, NB_LIST, NORMAL_SOFT, NORMAL_VISCO, TANGENT_SMOOTH
+from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTACT_SOFT, CONTACT_WELL, NB_LIST, NORMAL_SOFT, TANGENT_SMOOTH
 from .nblist import build_lists, rebuild_list
 from .predict import advance, separation
 from .queue import queue_top, queue_update
 from .schedule import cross_cell, predict_aux, predict_pair, repredict, requeue, wrap_into_box
+from .wells import capture_by_distance, well_event
 
 
 @hot
-def _bad_contact(p, k, t, P, geo, tol, acc, cnt, exact):
-    """Record ``(p, k)`` if they overlap (or, with ``exact``, do not touch) beyond ``tol``."""
+def _bad_contact(p, k, t, P, geo, tol, acc, cnt, exact, scale):
+    """Record ``(p, k)`` if they overlap (or, with ``exact``, are not at ``scale`` times their
+    contact distance) beyond ``tol``."""
     dx, dy, dz, gx, gy, gz = separation(P, p, k, t, geo)
-    err = 1.0 - np.sqrt(dx * dx + dy * dy + dz * dz) / (P[p, L.R] + P[k, L.R])
+    err = 1.0 - np.sqrt(dx * dx + dy * dy + dz * dz) / (scale * (P[p, L.R] + P[k, L.R]))
     if exact:
         err = abs(err)
     if err > tol:
@@ -43,27 +45,28 @@ def _bad_contact(p, k, t, P, geo, tol, acc, cnt, exact):
 
 
 @jit
-def _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf, contact_only):
-    """Debug mode: the colliding pair touches (|r_ij| = sigma) and neither partner overlaps a candidate.
+def _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf, contact_only, scale):
+    """Debug mode: the colliding pair touches (|r_ij| = sigma, or ``scale`` sigma at a square
+    well's edge) and neither partner overlaps a candidate.
 
     ``contact_only`` (eMD*, where partners of soft contacts overlap by design) skips the second test.
 
     Records the offending pair in ``cnt[C_BAD_I/J]`` and the relative error in ``acc[A_BAD]``.
     """
     tol = fp[L.FP_DEBUG_TOL]
-    if _bad_contact(i, j, t, P, geo, tol, acc, cnt, True):
+    if _bad_contact(i, j, t, P, geo, tol, acc, cnt, True, scale):
         return False
     if contact_only:
         return True
     for p in (np.int64(i), np.int64(j)):
         if mode == NB_LIST:
             for s in range(lists.size[p]):
-                if _bad_contact(p, lists.members[p, s], t, P, geo, tol, acc, cnt, False):
+                if _bad_contact(p, lists.members[p, s], t, P, geo, tol, acc, cnt, False, 1.0):
                     return False
         else:
             nc, s, k = walk_around(grid, grid.cell[p], geo, cbuf)
             while k >= 0:
-                if k != p and _bad_contact(p, k, t, P, geo, tol, acc, cnt, False):
+                if k != p and _bad_contact(p, k, t, P, geo, tol, acc, cnt, False, 1.0):
                     return False
                 nc, s, k = walk_next(grid, cbuf, nc, s, k)
     return True
@@ -110,22 +113,26 @@ class Loop(NamedTuple):
     name: str
 
 
-def variant_name(walls: bool, emd_on: bool, rough: bool, normal: int, debug: bool = False, bath: bool = False, noise: bool = False) -> str:
-    """Readable name of a feature set, e.g. ``"walls+rough+viscoelastic"`` (``"plain"``: none).
+def variant_name(
+    walls: bool, emd_on: bool, rough: bool, normal: int, debug: bool = False, bath: bool = False, noise: bool = False, well: bool = False
+) -> str:
+    """Readable name of a feature set, e.g. ``"walls+rough+soft"`` (``"plain"``: none; ``soft``: the
+    central restitution of a contact law, e.g. viscoelastic spheres).
 
     Example:
         >>> from edmd._core import layout as L
-        >>> variant_name(True, False, True, L.NORMAL_VISCO)
-        'walls+rough+viscoelastic'
+        >>> variant_name(True, False, True, L.NORMAL_SOFT)
+        'walls+rough+soft'
     """
     parts = [name for name, on in (("walls", walls), ("emdstar", emd_on), ("rough", rough)) if on]
-    law = {NORMAL_VISCO: "viscoelastic", NORMAL_SOFT: "soft"}.get(int(normal))
-    if law is not None and not emd_on:  # eMD*'s instantaneous fallbacks always use the soft law
-        parts.append(law)
+    if normal == NORMAL_SOFT and not emd_on:  # eMD*'s instantaneous fallbacks always use the soft law
+        parts.append("soft")
     if bath:
         parts.append("bath")
     if noise:
         parts.append("noise")
+    if well:
+        parts.append("well")
     if debug:
         parts.append("debug")
     return "+".join(parts) or "plain"
@@ -135,7 +142,9 @@ _VARIANTS: dict[tuple, Loop] = {}
 _SETUPS: dict[tuple, Callable] = {}
 
 
-def loop_variant(walls: bool, emd_on: bool, rough: bool, normal: int, debug: bool = False, bath: bool = False, noise: bool = False) -> Loop:
+def loop_variant(
+    walls: bool, emd_on: bool, rough: bool, normal: int, debug: bool = False, bath: bool = False, noise: bool = False, well: bool = False
+) -> Loop:
     """The event loop specialised to the physics of a run, compiled (and cached on disk) on first use.
 
     The features are compile-time constants of the loop (closure variables): Numba prunes the
@@ -153,6 +162,8 @@ def loop_variant(walls: bool, emd_on: bool, rough: bool, normal: int, debug: boo
         debug: the per-collision checks of debug mode (``_debug_check``).
         bath: the Andersen heat bath's events (:mod:`.bath`).
         noise: white-noise kicks, a global timer in the calendar (:mod:`.forcing`).
+        well: square wells, pair events of several kinds with a capture map (:mod:`.wells`;
+            neighbour lists only).
 
     Example:
         >>> from edmd._core import layout as L
@@ -160,16 +171,16 @@ def loop_variant(walls: bool, emd_on: bool, rough: bool, normal: int, debug: boo
         >>> loop is loop_variant(False, False, False, L.NORMAL_CONST)
         True
     """
-    key = (bool(walls), bool(emd_on), bool(rough), int(normal), bool(debug), bool(bath), bool(noise))
+    key = (bool(walls), bool(emd_on), bool(rough), int(normal), bool(debug), bool(bath), bool(noise), bool(well))
     if key not in _VARIANTS:
-        aux = (key[0], key[1], key[5])  # the set-up depends on the single-particle events only
+        aux = (key[0], key[1], key[5], key[7])  # the set-up depends on the single-particle events and wells only
         if aux not in _SETUPS:
             _SETUPS[aux] = _make_setup(*aux)
         _VARIANTS[key] = Loop(_make_loop(*key), _SETUPS[aux], variant_name(*key))
     return _VARIANTS[key]
 
 
-def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on):
+def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well):
     @jit
     def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, etab, emd, drive, t_stop, max_events):
         """Process events in time order until ``t_stop`` (exclusive) or ``max_events``.
@@ -189,6 +200,7 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on):
         log_walls = log_cap > 0 and ip[L.IP_LOG_WALLS] != 0
         total_mass = fp[L.FP_MTOT]
         skin = fp[L.FP_SKIN]
+        reach = 1.0 + fp[L.FP_WELL_WIDTH]
         wall_axes = ip[L.IP_WALLS]
         origin = drive.origin[0]
         done = 0
@@ -257,7 +269,7 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on):
                     advance(P, i, t, geo)
                     wrap_into_box(P, image, i, geo)
                     cnt[L.C_REBUILD] += 1
-                    if not rebuild_list(i, P, grid, lists, geo, skin, cbuf):
+                    if not rebuild_list(i, P, grid, lists, geo, skin, reach, cbuf):
                         return L.ST_LIST_FULL
                 elif kind >= L.AUX_CELL and kind < L.AUX_WALL:  # a cell crossing (the most frequent
                     # event of dilute gases): a path of its own
@@ -279,13 +291,20 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on):
                     if log_cap > 0 and cnt[L.C_LOG] >= log_cap:
                         cnt[L.C_EVENTS] -= 1
                         return L.ST_LOG_FULL
-                    if debug and not _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf, emd_on):
+                    edge = False  # a square well's capture, release or bounce
+                    if well:
+                        edge = ev.pair_k[i] != L.PAIR_CORE
+                    if debug and not _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf, emd_on, reach if edge else 1.0):
                         return L.ST_OVERLAP
                     advance(P, i, t, geo)
                     advance(P, j, t, geo)
                     integrate_kinetic(acc, t, geo, total_mass)
                     outcome = CONTACT_INSTANT
                     vn = vt = 0.0
+                    if well:
+                        if edge:
+                            well_event(i, j, ev.pair_k[i], P, mass, ev, geo, fp, acc, cnt)
+                            outcome = CONTACT_WELL
                     if emd_on:
                         outcome = emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt, cbuf, emd, bath_t)
                         if outcome == CONTACT_LIST_FULL:
@@ -300,15 +319,15 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on):
                         vn, vt = collide_pair(t, P, mass, omega, inertia, tlast, i, j, geo, fp, ip, etab, acc, cnt, TANGENT_SMOOTH, normal)
                     count[i] += 1
                     count[j] += 1
-                    if outcome != CONTACT_DISCARDED:
+                    if outcome != CONTACT_DISCARDED and outcome != CONTACT_WELL:
                         cnt[L.C_COLL] += 1
                         _log_collision(clog, cnt, log_cap, t, i, j, vn, vt)
                     # a path of its own (as crossings have): a site shared by several event kinds
                     # mixes their branch histories, which cost cell-mode gases 20-30 % (measured)
-                    predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
+                    predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, well, reach)
                     predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t)
                     requeue(q, ev, i)
-                    predict_pair(j, t, P, count, ev, grid, lists, geo, mode, cbuf)
+                    predict_pair(j, t, P, count, ev, grid, lists, geo, mode, cbuf, well, reach)
                     predict_aux(j, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t)
                     requeue(q, ev, j)
                     continue
@@ -317,7 +336,7 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on):
             for s in range(nrep):
                 p = i if s == 0 else j
                 if pair:
-                    predict_pair(p, t, P, count, ev, grid, lists, geo, mode, cbuf)
+                    predict_pair(p, t, P, count, ev, grid, lists, geo, mode, cbuf, well, reach)
                 if aux:
                     predict_aux(p, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t)
                 requeue(q, ev, p)
@@ -325,26 +344,31 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on):
     return run_events
 
 
-def _make_setup(walls, emd_on, bath_on):
+def _make_setup(walls, emd_on, bath_on, well):
     @jit
-    def setup_events(part, ev, grid, lists, geo, fp, ip, cbuf, emd, drive, t):
+    def setup_events(part, ev, grid, lists, geo, fp, ip, cbuf, emd, drive, t, derive_captures):
         """Bin every particle (positions or list centres) and predict all events at time ``t``.
 
-        Returns ``False`` if a neighbour list ran out of capacity.
+        With a square well and ``derive_captures`` (a state without a capture map), every pair
+        inside its well's edge is captured first. Returns ``False`` if a neighbour list ran out of
+        capacity.
         """
         P = part.rows
         count = part.count
         mode = ip[L.IP_MODE]
         n = P.shape[0]
         skin = fp[L.FP_SKIN]
+        reach = 1.0 + fp[L.FP_WELL_WIDTH]
         wall_axes = ip[L.IP_WALLS]
         if mode == NB_LIST:
-            if not build_lists(P, grid, lists, geo, skin, cbuf):
+            if not build_lists(P, grid, lists, geo, skin, reach, cbuf):
                 return False
+            if well and derive_captures:
+                capture_by_distance(P, ev, lists, geo, reach, t)
         else:
             bin_all(P, geo, grid)
         for i in range(n):
-            predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf)
+            predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, well, reach)
             predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, emd.pending_until, bath_on, drive.bath_t)
         return True
 

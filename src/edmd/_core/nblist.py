@@ -3,10 +3,11 @@
 Every particle ``i`` owns a list centre :math:`\\mathbf c_i` (its position at its last rebuild)
 and may move at most :math:`\\delta = s/2` away from it (``s`` = skin); leaving that shell is an
 event. Invariant: ``j`` is in ``i``'s list (and ``i`` in ``j``'s) whenever
-:math:`|\\mathbf c_i - \\mathbf c_j| < \\sigma_{ij} + s`, so two particles that can touch while
-both are inside their shells are always listed. A rebuild moves only ``i``'s centre: ``i`` is
+:math:`|\\mathbf c_i - \\mathbf c_j| < \\lambda\\sigma_{ij} + s`, so two particles that can touch while
+both are inside their shells are always listed (:math:`\\lambda = 1`, or a square well's edge).
+A rebuild moves only ``i``'s centre: ``i`` is
 removed from its old neighbours' lists and added to its new ones, found through a cell grid over
-the centres with cells of edge :math:`\\ge 2R_{\\max} + s`.
+the centres with cells of edge :math:`\\ge 2\\lambda R_{\\max} + s`.
 
 ``lists`` (:class:`.bundles.Lists`, unpacked as ``nbl, nbl_n, centre``): ``nbl[i, :nbl_n[i]]`` are the neighbours of ``i``.
 """
@@ -32,8 +33,9 @@ def _drop(nbl, nbl_n, owner, i):
 
 
 @leaf
-def _link_neighbours(i, P, grid, lists, geo, skin, cbuf, only_higher):
-    """Add every ``j`` whose centre is within ``sigma_ij + skin`` of ``c_i`` to both lists.
+def _link_neighbours(i, P, grid, lists, geo, skin, reach, cbuf, only_higher):
+    """Add every ``j`` whose centre is within ``reach * sigma_ij + skin`` of ``c_i`` to both lists
+    (``reach``: 1, or a square well's :math:`\\lambda`: its edge is the interaction range).
 
     With ``only_higher`` only ``j > i`` is considered (initial build, each pair once).
     Returns ``False`` when a list is full.
@@ -41,12 +43,12 @@ def _link_neighbours(i, P, grid, lists, geo, skin, cbuf, only_higher):
     nbl, nbl_n, centre = lists
     cap = nbl.shape[1]
     cx, cy, cz = centre[i, 0], centre[i, 1], centre[i, 2]
-    ri = P[i, R] + skin
+    ri = reach * P[i, R] + skin  # (reach 1.0: exactly the sums of hard spheres)
     nc, s, j = walk_around(grid, grid.cell[i], geo, cbuf)
     while j >= 0:
         if j != i and (j > i or not only_higher):
             dx, dy, dz = wrap3(cx - centre[j, 0], cy - centre[j, 1], cz - centre[j, 2], geo)
-            lim = ri + P[j, R]
+            lim = ri + reach * P[j, R]
             if dx * dx + dy * dy + dz * dz < lim * lim:
                 ni = nbl_n[i]
                 nj = nbl_n[j]
@@ -71,7 +73,7 @@ def place_centre(i, P, grid, lists, geo):
 
 
 @jit
-def rebuild_list(i, P, grid, lists, geo, skin, cbuf):
+def rebuild_list(i, P, grid, lists, geo, skin, reach, cbuf):
     """Re-centre the neighbour list of ``i`` at its stored position (streamed and wrapped by the caller)."""
     nbl, nbl_n, centre = lists
     for s in range(nbl_n[i]):
@@ -79,11 +81,11 @@ def rebuild_list(i, P, grid, lists, geo, skin, cbuf):
     nbl_n[i] = 0
     cell_remove(grid, i)
     place_centre(i, P, grid, lists, geo)
-    return _link_neighbours(i, P, grid, lists, geo, skin, cbuf, False)
+    return _link_neighbours(i, P, grid, lists, geo, skin, reach, cbuf, False)
 
 
 @jit
-def build_lists(P, grid, lists, geo, skin, cbuf):
+def build_lists(P, grid, lists, geo, skin, reach, cbuf):
     """Build all neighbour lists from scratch, centred at the stored positions."""
     head = grid.head
     head[:] = -1
@@ -93,7 +95,7 @@ def build_lists(P, grid, lists, geo, skin, cbuf):
     for i in range(n):
         place_centre(i, P, grid, lists, geo)
     for i in range(n):
-        if not _link_neighbours(i, P, grid, lists, geo, skin, cbuf, True):
+        if not _link_neighbours(i, P, grid, lists, geo, skin, reach, cbuf, True):
             return False
     return True
 

@@ -20,6 +20,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from ..physics import collide
 from ..physics.thermostats import Andersen, WhiteNoise
 from ..physics.vibration import VibratingWall
+from ..physics.wells import SquareWell
 from ..run.updaters import VelocityRescale
 
 
@@ -358,6 +359,16 @@ class VibrationConfig(_Section):
         return VibratingWall(amplitude=self.amplitude, omega=self.omega, phase=self.phase, axis=self.axis, side=self.side, wave=self.wave)
 
 
+class WellConfig(_Section):
+    """``[well]``: square-well attraction between the hard cores (see :class:`edmd.SquareWell`)."""
+
+    width: float = Field(gt=1, allow_inf_nan=False, description="lambda: the edge at lambda * (R_i + R_j)")
+    depth: float = Field(gt=0, allow_inf_nan=False, description="epsilon: the energy gained on entering the well")
+
+    def build(self) -> SquareWell:
+        return SquareWell(width=self.width, depth=self.depth)
+
+
 class OutputConfig(_Section):
     """``[output]``: which files the run directory gets."""
 
@@ -395,6 +406,7 @@ class Config(_Section):
     thermostat: ThermostatConfig | None = None
     forcing: ForcingConfig | None = None
     vibration: VibrationConfig | None = None
+    well: WellConfig | None = None
 
     @model_validator(mode="after")
     def _integrator(self):
@@ -405,8 +417,8 @@ class Config(_Section):
                 raise ValueError("the DEM takes its dissipation from [contact]; leave [collision] at rule = 'elastic' (no tc)")
             if self.walls.axes:
                 raise ValueError("the DEM needs a periodic box: leave walls.axes empty")
-            if self.thermostat is not None or self.forcing is not None or self.vibration is not None:
-                raise ValueError("[thermostat], [forcing] and [vibration] act through events: they need integrator.kind = 'edmd'")
+            if any(x is not None for x in (self.thermostat, self.forcing, self.vibration, self.well)):
+                raise ValueError("[thermostat], [forcing], [vibration] and [well] act through events: they need integrator.kind = 'edmd'")
         elif self.contact is not None:
             raise ValueError("[contact] is used by integrator.kind = 'dem' only")
         return self
@@ -610,6 +622,10 @@ plots = true              # PNG figures at the end of the run (also: `edmd plot 
 # omega = 10.0
 # phase = 0.0
 # wave = "sine"
+
+# [well]                  # square-well attraction between the hard cores (edmd integrator, neighbour lists)
+# width = 1.5             #   the edge at width * (R_i + R_j): pairs inside have energy -depth
+# depth = 1.0
 
 [integrator]
 kind = "edmd"             # "edmd" (event-driven, hard particles) or "dem" (force-based, soft contacts)

@@ -465,7 +465,7 @@ def _read_run(run_dir: Path, traj: Path, frames: int) -> _Run:
 
 
 def _run_kind(cfg: Config | None, n: int | None, gravity) -> str:
-    """``single`` (N = 1), ``emdstar``, ``vibrated`` (a vibrating wall), ``elastic``, ``granular`` (constant e_n),
+    """``single`` (N = 1), ``emdstar``, ``vibrated`` (a vibrating wall), ``well`` (square wells), ``elastic``, ``granular`` (constant e_n),
     ``rough``, ``viscoelastic`` or ``other``.
 
     ``other``: no config.toml, the DEM, or gravity on many particles (no homogeneous law applies).
@@ -478,6 +478,8 @@ def _run_kind(cfg: Config | None, n: int | None, gravity) -> str:
         return "emdstar"
     if cfg.vibration is not None:
         return "vibrated"
+    if cfg.well is not None:  # (not the hard-sphere equation of state: the temperature, and the rdf's jump)
+        return "well"
     if gravity is not None and np.any(gravity != 0):
         return "other"
     return {"inelastic": "granular"}.get(cfg.collision.rule, cfg.collision.rule)
@@ -497,6 +499,7 @@ def _run_label(run_dir: Path, run: _Run, n: int | None) -> str:
         rule = [f"DEM ({cfg.contact.model})"] if cfg.integrator.kind == "dem" else [c.rule + (f" ({c.contact})" if c.rule == "emdstar" else "")]
         rule += [f"{short} = {getattr(c, key):.3g}" for key, short in _PARAMETERS.items() if getattr(c, key, None) is not None]
         rule += [f"walls {''.join(cfg.walls.axes)}"] if cfg.walls.axes else []
+        rule += [f"square well {cfg.well.width:.3g} x sigma, depth {cfg.well.depth:.3g}"] if cfg.well is not None else []
     if run.has_gravity:
         rule.append("g = (" + ", ".join(f"{g:.3g}" for g in run.gravity) + ")")
     name = run_dir.resolve().name

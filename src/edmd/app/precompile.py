@@ -5,12 +5,13 @@ eMD*, a tangential law and the normal law. The first run of each feature set pay
 (about 15-45 CPU-seconds); later runs load it from Numba's on-disk cache. A cluster image, a
 sweep's workers or CI can warm the cache for the feature sets they will use.
 
-Features are written as ``+``-joined names: ``plain``, ``walls``, ``rough``, ``viscoelastic``,
-``soft`` (the central restitution of a soft contact law used instantaneously), ``emdstar``,
+Features are written as ``+``-joined names: ``plain``, ``walls``, ``rough``, ``soft`` (the central
+restitution of a contact law used instantaneously: viscoelastic spheres, ``viscoelastic`` is
+another name for it), ``emdstar``,
 ``bath`` (the Andersen heat bath, :class:`edmd.Andersen`), ``noise`` (white-noise kicks,
 :class:`edmd.WhiteNoise`), ``vibration`` (a vibrating wall, :class:`edmd.VibratingWall`: the
-walls variant compiled for its geometry) and ``debug`` (the per-collision checks
-of ``[engine] debug``), e.g. ``walls+rough+viscoelastic``.
+walls variant compiled for its geometry), ``well`` (square wells, :class:`edmd.SquareWell`) and ``debug`` (the per-collision checks
+of ``[engine] debug``), e.g. ``walls+rough+soft``.
 """
 
 from __future__ import annotations
@@ -22,7 +23,9 @@ from .._core import layout as L
 from .._core.jit import in_disk_cache
 from .._core.loop import GEO_ARG, loop_variant
 
-FEATURES = ("walls", "rough", "viscoelastic", "soft", "emdstar", "bath", "noise", "vibration", "debug")
+FEATURES = ("walls", "rough", "soft", "emdstar", "bath", "noise", "vibration", "well", "debug")
+#: other names of features
+SYNONYMS = {"viscoelastic": "soft"}
 
 
 class FeatureError(ValueError):
@@ -38,65 +41,62 @@ def parse_features(spec: str) -> frozenset[str]:
         >>> parse_features("emdstar+rough")
         Traceback (most recent call last):
         ...
-        edmd.app.precompile.FeatureError: emdstar runs are smooth and use their soft contact law: it cannot be combined with rough, viscoelastic or soft
+        edmd.app.precompile.FeatureError: emdstar runs are smooth and use their soft contact law: it cannot be combined with rough or soft
+        >>> sorted(parse_features("walls+viscoelastic"))
+        ['soft', 'walls']
     """
-    names = [n.strip() for n in spec.split("+") if n.strip()]
+    names = [SYNONYMS.get(n.strip(), n.strip()) for n in spec.split("+") if n.strip()]
     if names == ["plain"]:
         return frozenset()
     unknown = [n for n in names if n not in FEATURES]
     if unknown or not names:
         raise FeatureError(f"unknown feature {unknown[0] if unknown else spec!r}; the features are plain or {', '.join(FEATURES)} joined by '+'")
     found = frozenset(names)
-    if "emdstar" in found and found & {"rough", "viscoelastic", "soft"}:
-        raise FeatureError("emdstar runs are smooth and use their soft contact law: it cannot be combined with rough, viscoelastic or soft")
+    if "emdstar" in found and found & {"rough", "soft"}:
+        raise FeatureError("emdstar runs are smooth and use their soft contact law: it cannot be combined with rough or soft")
     if {"emdstar", "noise"} <= found:
         raise FeatureError("white-noise kicks and eMD* cannot be combined")
-    if {"viscoelastic", "soft"} <= found:
-        raise FeatureError("choose one normal law: viscoelastic or soft")
+    if {"emdstar", "well"} <= found:
+        raise FeatureError("square wells and eMD* cannot be combined")
     if "vibration" in found and "walls" not in found:
         raise FeatureError("a vibrating wall is one of the walls: vibration needs walls")
     return found
 
 
 def all_feature_sets() -> list[frozenset[str]]:
-    """Every feature set a run can have, less debug mode (the variants ``edmd compile --all`` builds)."""
+    """The feature sets ``edmd compile --all`` builds: every normal and tangential law with and without
+    walls and eMD*, each with the drivers, a vibrating wall and square wells (debug mode excluded)."""
     sets = []
     for walls in ((), ("walls",)):
-        for normal in ((), ("viscoelastic",), ("soft",)):
+        for normal in ((), ("soft",)):
             for rough in ((), ("rough",)):
                 sets.append(frozenset(walls + normal + rough))
         sets.append(frozenset(walls + ("emdstar",)))
     driven = [s | extra for s in sets for extra in ({"bath"}, {"noise"}, {"bath", "noise"}) if not ("emdstar" in s and "noise" in extra)]
     vibrated = [s | {"vibration"} for s in sets if "walls" in s]
-    return sets + driven + vibrated
+    wells = [s | {"well"} for s in sets if "emdstar" not in s]
+    return sets + driven + vibrated + wells
 
 
 def _variant(features: frozenset[str]):
-    normal = L.NORMAL_CONST
-    if "viscoelastic" in features:
-        normal = L.NORMAL_VISCO
-    elif "soft" in features or "emdstar" in features:
-        normal = L.NORMAL_SOFT
+    normal = L.NORMAL_SOFT if features & {"soft", "emdstar"} else L.NORMAL_CONST
     return loop_variant(
-        "walls" in features, "emdstar" in features, "rough" in features, normal, "debug" in features, "bath" in features, "noise" in features
+        *(name in features for name in ("walls", "emdstar", "rough")), normal, *(name in features for name in ("debug", "bath", "noise", "well"))
     )
 
 
 def _example(features: frozenset[str]):
     """A small simulation with exactly these features (its first events compile the variant)."""
     import edmd
-    from ..physics.collide import Rough, Viscoelastic
+    from ..physics.collide import Rough
     from ..physics.contact import Hertz
     from ..physics.emdstar import EMDStar
     from ..physics.thermostats import Andersen, WhiteNoise
     from ..physics.vibration import VibratingWall
+    from ..physics.wells import SquareWell
 
     hertz = Hertz(young=1e5, poisson=0.3, A=1e-3)
-    normal = 0.9
-    if "viscoelastic" in features:
-        normal = Viscoelastic(young=1e5, poisson=0.3, A=1e-4)
-    elif "soft" in features:
-        normal = hertz
+    normal = hertz if "soft" in features else 0.9
     rule = Rough(e_n=normal, beta=0.5) if "rough" in features else Rough(e_n=normal)
     if "emdstar" in features:
         rule = EMDStar(hertz)
@@ -107,7 +107,8 @@ def _example(features: frozenset[str]):
         bath = Andersen(kT=1.0, rate=0.1) if "bath" in features else None
         kicks = WhiteNoise(xi0=1.0, interval=0.1) if "noise" in features else None
         shaker = VibratingWall(amplitude=0.1, omega=1.0, phase=-1.5707963267948966) if "vibration" in features else None
-        return edmd.Simulation(state, collision=rule, thermostat=bath, forcing=kicks, vibration=shaker, engine={"debug": "debug" in features})
+        well = SquareWell(width=1.5, depth=0.5) if "well" in features else None
+        return edmd.Simulation(state, collision=rule, thermostat=bath, forcing=kicks, vibration=shaker, well=well, engine={"debug": "debug" in features})
 
 
 def compile_features(features: frozenset[str]) -> tuple[str, float, bool]:

@@ -84,8 +84,9 @@ def build_simulation(cfg: Config, state: State | None = None) -> Simulation:
     bath = None if cfg.thermostat is None else cfg.thermostat.build()
     kicks = None if cfg.forcing is None else cfg.forcing.build()
     shaker = None if cfg.vibration is None else cfg.vibration.build()
+    well = None if cfg.well is None else cfg.well.build()
     return Simulation(
-        state, collision=rule, walls=walls, gravity=cfg.system.gravity, thermostat=bath, forcing=kicks, vibration=shaker, engine=options
+        state, collision=rule, walls=walls, gravity=cfg.system.gravity, thermostat=bath, forcing=kicks, vibration=shaker, well=well, engine=options
     )
 
 

@@ -40,6 +40,7 @@ import gsd.hoomd
 import numpy as np
 
 from .._core import layout as L
+from .._core.contact import MODEL_HERTZ
 from .atomic import atomic_path
 from ..run.observer import Observer, Totals
 from ..run.simulation import Simulation
@@ -259,7 +260,22 @@ def engine_arrays(data: CheckpointData, path="checkpoint") -> dict[str, np.ndarr
                 out[key][here[name]] = value
             elif value != 0:
                 raise CheckpointError(f"{path} was written by a newer edmd: {key} entry {name!r} = {value} is unknown to this one")
+    _migrate_viscoelastic(out["fp"], out["ip"])
     return out
+
+
+def _migrate_viscoelastic(fp: np.ndarray, ip: np.ndarray):
+    """The retired ``NORMAL_VISCO`` law of older checkpoints as the Hertz law it is: ``NORMAL_SOFT``
+    with ``soft_a = K`` and ``soft_b = 3A/2`` (the values :meth:`edmd.physics.contact.Hertz.constants`
+    packs, bit for bit)."""
+    slots = [k for k in (L.IP_NORMAL, L.IP_WALL_NORMAL) if ip[k] == L.NORMAL_VISCO]
+    if not slots:
+        return
+    for k in slots:
+        ip[k] = L.NORMAL_SOFT
+    ip[L.IP_EMD_MODEL] = MODEL_HERTZ
+    fp[L.FP_SOFT_A], fp[L.FP_SOFT_B] = fp[L.FP_VISCO_K], 1.5 * fp[L.FP_VISCO_A]
+    fp[L.FP_VISCO_K] = fp[L.FP_VISCO_A] = 0.0
 
 
 def _restore_observers(sim: Simulation, path, data: CheckpointData, observers: list[Observer]):

@@ -63,7 +63,7 @@ class Thermo(Observer):
 
     Each row holds the instantaneous ``time, events, collisions``, the translational
     ``kinetic_energy`` and ``temperature``, the ``rotational_energy`` and ``temperature_rot``,
-    the gravitational ``potential_energy``, the cumulative ``dissipated_energy`` and their sum
+    the ``potential_energy`` (gravity's, and a square well's :math:`-\\varepsilon` per captured pair), the cumulative ``dissipated_energy`` and their sum
     ``energy_balance`` (constant to round-off: kinetic + rotational + potential + dissipated),
     and, averaged over the interval that ends there, the ``pressure`` (kinetic + collision
     virial, physics.md §5.3; meaningful in periodic directions), the ``collision_rate`` per
@@ -96,7 +96,7 @@ class Thermo(Observer):
 
     def observe(self, sim: Simulation, state: State, totals: Totals):
         kinetic, rotational = state.kinetic_energy(), state.rotational_energy()
-        potential = state.potential_energy(sim.gravity) + sim.elastic_energy  # + soft contacts (DEM)
+        potential = state.potential_energy(sim.gravity) + sim.elastic_energy + sim.potential_energy  # + soft contacts (DEM), square wells
         row = {
             "time": totals.time,
             "events": totals.events,

@@ -94,6 +94,8 @@ def state_to_frame(state: State, totals: Totals | None = None, pending: bool | N
         f.log["particles/pending_velocity"] = np.asarray(state.pending_velocity, np.float64)
         f.log["particles/pending_until"] = np.asarray(state.pending_until, np.float64)
         f.log["particles/pending_partner"] = np.asarray(state.pending_partner, np.int64)
+    if state.captured_pairs is not None:  # (square-well runs: in every frame, even when empty)
+        f.log["state/captured_pairs"] = state.captured_pairs.ravel().astype(np.int64)
     if totals is not None:
         f.log["events"] = np.array([totals.events], np.int64)
         f.log["collisions"] = np.array([totals.collisions], np.int64)
@@ -136,6 +138,7 @@ def frame_to_state(frame: gsd.hoomd.Frame, check_overlaps: bool = True) -> State
     periodic = log.get("configuration/periodic")
     last = log.get("particles/last_collision")
     time = float(log["time"][0]) if "time" in log else 0.0
+    captured = log.get("state/captured_pairs")
     return State(
         position=pos,
         velocity=vel,
@@ -151,6 +154,7 @@ def frame_to_state(frame: gsd.hoomd.Frame, check_overlaps: bool = True) -> State
         pending_velocity=log.get("particles/pending_velocity"),
         pending_until=log.get("particles/pending_until"),
         pending_partner=log.get("particles/pending_partner"),
+        captured_pairs=None if captured is None else np.asarray(captured, np.int64).reshape(-1, 2),
         check_overlaps=check_overlaps,
     )
 

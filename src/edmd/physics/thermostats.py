@@ -34,6 +34,7 @@ import numpy as np
 from .._core import layout as L
 from .._core.forcing import tick_time
 from .vibration import VibratingWall
+from .wells import SquareWell
 
 
 @dataclasses.dataclass(frozen=True)
@@ -151,11 +152,11 @@ def _check_parameters(driver, positive: tuple[str, ...]):
         raise ValueError(f"{owner} seed must be an integer in [0, 2**63), got {seed!r}")
 
 
-DRIVERS = {"andersen": Andersen, "white_noise": WhiteNoise, "vibrating_wall": VibratingWall}
+DRIVERS = {"andersen": Andersen, "white_noise": WhiteNoise, "vibrating_wall": VibratingWall, "square_well": SquareWell}
 
 
 def driver_from_dict(data: dict | None, expected: type):
-    """The thermostat, forcing or vibrating wall of a ``to_dict()`` (``None`` stays ``None``), checked to be an ``expected``.
+    """The thermostat, forcing, vibrating wall or square well of a ``to_dict()`` (``None`` stays ``None``), checked to be an ``expected``.
 
     Example:
         >>> driver_from_dict({"kind": "andersen", "kT": 1.0, "rate": 0.5}, Andersen)
@@ -163,7 +164,7 @@ def driver_from_dict(data: dict | None, expected: type):
         >>> driver_from_dict({"kind": "nose", "kT": 1.0}, Andersen)
         Traceback (most recent call last):
         ...
-        ValueError: unknown kind 'nose'; the kinds are andersen, white_noise, vibrating_wall
+        ValueError: unknown kind 'nose'; the kinds are andersen, white_noise, vibrating_wall, square_well
     """
     if data is None:
         return None

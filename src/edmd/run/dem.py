@@ -90,6 +90,8 @@ class DEMEngine:
     thermostat = None
     forcing = None
     vibration = None
+    well = None
+    potential_energy = 0.0  # (no square wells: the contacts' energy is the elastic energy)
 
     def __init__(self, state: State, contact: ContactModel, dt: float, skin: float, gravity=None):
         if not np.all(state.periodic):

@@ -26,6 +26,7 @@ from .._core.jit import in_disk_cache
 from .._core.loop import GEO_ARG, loop_variant
 from .._core.queue import calendar_shape, new_queue, queue_build
 from .._core.snapshot import stream_all
+from .._core.wells import captured_pairs, load_captured
 from ..physics import collide
 from ..physics.emdstar import EMDStar, emd_bundle
 from .memory import grid_shape
@@ -84,7 +85,9 @@ class CollapseError(EngineError):
 class Engine:
     """Compiled-core arrays of one system (internal; see :class:`edmd.Simulation`)."""
 
-    def __init__(self, state: State, options: EngineOptions | None = None, rule=None, wall=None, gravity=None, thermostat=None, forcing=None, vibration=None):
+    def __init__(
+        self, state: State, options: EngineOptions | None = None, rule=None, wall=None, gravity=None, thermostat=None, forcing=None, vibration=None, well=None
+    ):
         self.options = options or EngineOptions()
         self.dim = state.dim
         self.n = state.n
@@ -114,6 +117,11 @@ class Engine:
             raise StateError("white-noise forcing and eMD* cannot be combined: a kick would break a pending soft contact")
         if vibration is not None:
             self._check_vibration(state, vibration)
+        self.well = well
+        if well is not None:
+            if self.emd_rule is not None:
+                raise StateError("square wells and eMD* cannot be combined: eMD*'s soft contacts have no well")
+            well.pack(self.fp, self.ip)
         self.etab = collide.viscoelastic_table()[0]
         self.ip[L.IP_WALLS] = sum(1 << k for k in range(self.dim) if not self.periodic[k])
         self.ip[L.IP_MAXSTALL] = 2 * self.n + 1000
@@ -137,6 +145,7 @@ class Engine:
             self.options.debug,
             thermostat is not None,
             forcing is not None,
+            well is not None,
         )
         run_events, geo_type = self.loop.run_events, typeof(self.geo)
         if not any(sig.args[GEO_ARG] == geo_type for sig in run_events.nopython_signatures) and not in_disk_cache(run_events, (GEO_ARG, self.geo)):
@@ -149,8 +158,11 @@ class Engine:
         opt = self.options
         mode = opt.neighbours
         if mode == "auto":
-            mode = "list" if state.packing_fraction >= opt.auto_threshold else "cells"
-        sigma_max = 2.0 * float(state.radius.max())
+            mode = "list" if state.packing_fraction >= opt.auto_threshold or self.well is not None else "cells"
+        if mode == "cells" and self.well is not None:
+            raise StateError("square wells need neighbours='list' (or 'auto'): their pair events are predicted over neighbour lists")
+        reach = 1.0 + self.fp[L.FP_WELL_WIDTH]
+        sigma_max = 2.0 * float(state.radius.max()) * reach  # the largest interaction range
         periodic_len = self.box[: self.dim][self.periodic]
         if mode == "cells":
             short = periodic_len[periodic_len < 4.0 * sigma_max]
@@ -167,7 +179,7 @@ class Engine:
             if limit <= 0:
                 raise StateError(
                     f"periodic box length {periodic_len.min():g} must exceed twice the largest contact "
-                    f"distance ({2 * sigma_max:g})"
+                    f"distance{' (the square well edge)' if reach > 1.0 else ''} ({2 * sigma_max:g})"
                 )
             skin = min(skin, limit)
         self.mode = mode
@@ -242,7 +254,10 @@ class Engine:
         tlast = state.last_collision[order] - self.t_origin
         self.part = Particles(P, state.mass[order].copy(), omega, state.inertia[order].copy(), image, np.zeros(n, np.int32), tlast)
         self.emd = emd_bundle(n, self.emd_rule, self._pending_arrays(state, order))
-        self.ev = new_events(n)
+        self.ev = new_events(n, 0 if self.well is None else self.well.capacity(state.radius, self.dim))
+        self._derive_captures = self.well is not None and state.captured_pairs is None
+        if self.well is not None and not self._derive_captures:
+            self._load_captured(state, order)
         self.drive = self._new_drive()
         self._rebuild()
 
@@ -278,6 +293,27 @@ class Engine:
         pj = np.where(partner >= 0, inv[np.maximum(partner, 0)], -1).astype(np.int32)
         return dv, state.pending_until[order] - self.t_origin, pj
 
+    def _load_captured(self, state: State, order: np.ndarray):
+        """The capture map of ``state`` (user order) in internal order."""
+        pairs = state.captured_pairs
+        inv = np.empty(self.n, np.int64)
+        inv[order] = np.arange(self.n)
+        counts = np.bincount(pairs.ravel(), minlength=self.n)
+        if counts.size and counts.max() > self.ev.captured.shape[1]:
+            worst = int(np.argmax(counts))
+            raise StateError(
+                f"particle {worst} is captured by {int(counts[worst])} partners, more than hard cores can fit "
+                f"inside its square well ({self.ev.captured.shape[1]}): the captured pairs do not belong to this state"
+            )
+        load_captured(self.ev, inv[pairs])
+
+    @property
+    def potential_energy(self) -> float:
+        """The square wells' potential energy, :math:`-\\varepsilon` per captured pair (0 without wells)."""
+        if self.well is None:
+            return 0.0
+        return -self.well.depth * 0.5 * float(self.ev.captured_n.sum())
+
     def _trim_lists(self):
         """Shrink list rows to the fullest list plus a margin (lists grow again on overflow)."""
         nbl, nbl_n, centre = self.lists
@@ -305,7 +341,7 @@ class Engine:
             cap = max(self.list_capacity, 1) if self.mode == "list" else 1
             nl = n if self.mode == "list" else 1
             self.lists = Lists(np.zeros((nl, cap), np.int32), np.zeros(nl, np.int32), np.zeros((nl, 3)))
-            if self.loop.setup_events(self.part, self.ev, self.grid, self.lists, geo, self.fp, self.ip, self.cbuf, self.emd, self.drive, 0.0):
+            if self.loop.setup_events(self.part, self.ev, self.grid, self.lists, geo, self.fp, self.ip, self.cbuf, self.emd, self.drive, 0.0, self._derive_captures):
                 break
             self.list_capacity = int(self.list_capacity * 1.5) + 4
         if self.mode == "list":
@@ -446,6 +482,7 @@ class Engine:
             pending_velocity=self.emd.pending_dv[inv, :d],
             pending_until=self.emd.pending_until[inv] + self.t_origin,
             pending_partner=np.where(self.emd.partner[inv] >= 0, self.tag[np.maximum(self.emd.partner[inv], 0)], -1),
+            captured_pairs=None if self.well is None else self.tag[captured_pairs(self.ev)],
             check_overlaps=False,
         )
 

@@ -12,12 +12,15 @@ import warnings
 import numpy as np
 
 from ..physics import collide
+from ..physics.contact import Hertz
+from ..physics.emdstar import EMDStar
 from .._core import layout as L
 from .engine import Engine, EngineError, EngineOptions
 from .observer import Observer, Totals
 from ..state import State
 from ..physics.thermostats import Andersen, WhiteNoise, driver_from_dict
 from ..physics.vibration import VibratingWall
+from ..physics.wells import SquareWell
 
 
 class Simulation:
@@ -54,6 +57,7 @@ class Simulation:
         thermostat: Andersen | dict | None = None,
         forcing: WhiteNoise | dict | None = None,
         vibration: VibratingWall | dict | None = None,
+        well: SquareWell | dict | None = None,
         engine: EngineOptions | dict | None = None,
     ):
         if e_n is not None:
@@ -69,7 +73,8 @@ class Simulation:
         thermostat = _driver(thermostat, Andersen, "thermostat")
         forcing = _driver(forcing, WhiteNoise, "forcing")
         vibration = _driver(vibration, VibratingWall, "vibration")
-        self._engine = self._build_engine(state, collision, walls, gravity, (thermostat, forcing, vibration), engine)
+        well = _driver(well, SquareWell, "well")
+        self._engine = self._build_engine(state, collision, walls, gravity, (thermostat, forcing, vibration, well), engine)
         #: uniform acceleration (``d`` components)
         self.gravity = self._engine.grav[: state.dim].copy()
         self._time = float(state.time)
@@ -79,8 +84,10 @@ class Simulation:
     def _build_engine(self, state, collision, walls, gravity, drivers, options):
         """The engine of these physics, compiled; sets :attr:`params` (subclasses with another
         engine, e.g. :class:`~edmd.run.dem.DEMSimulation`, override this and nothing else of the set-up)."""
-        thermostat, forcing, vibration = drivers
-        engine = Engine(state, options, rule=collision, wall=walls, gravity=gravity, thermostat=thermostat, forcing=forcing, vibration=vibration)
+        thermostat, forcing, vibration, well = drivers
+        engine = Engine(
+            state, options, rule=collision, wall=walls, gravity=gravity, thermostat=thermostat, forcing=forcing, vibration=vibration, well=well
+        )
         engine.compile()  # once per machine (cached on disk); kept out of wall_seconds
         _warn_viscoelastic_validity(state, engine.rule, engine.wall, engine.grav[: state.dim])
         #: the constructor's physics arguments (saved in checkpoints; new arguments belong here)
@@ -91,6 +98,7 @@ class Simulation:
             "thermostat": None if thermostat is None else thermostat.to_dict(),
             "forcing": None if forcing is None else forcing.to_dict(),
             "vibration": None if vibration is None else vibration.to_dict(),
+            "well": None if well is None else well.to_dict(),
             "engine": dataclasses.asdict(engine.options),
         }
         return engine
@@ -148,6 +156,13 @@ class Simulation:
             wall_collisions=int(e.cnt[L.C_WALL]),
             energy_input=float(e.acc[L.A_ENERGY_INPUT]),
         )
+
+    @property
+    def potential_energy(self) -> float:
+        """Potential energy of the pair interactions: :math:`-\\varepsilon` per captured square-well
+        pair (:class:`edmd.SquareWell`; 0 for hard particles). Gravity's is
+        :meth:`edmd.State.potential_energy`."""
+        return self._engine.potential_energy
 
     @property
     def elastic_energy(self) -> float:
@@ -310,7 +325,8 @@ def engine_options(options: dict) -> EngineOptions:
 
 def _warn_viscoelastic_validity(state: State, rule, wall, gravity):
     """Warn when impacts may reach delta > 1, outside the viscoelastic model (physics.md §2.2.2)."""
-    for material in collide.materials(rule, wall):
+    material = collide.soft_contact(rule, wall)
+    if isinstance(material, Hertz) and not isinstance(rule, EMDStar):  # (eMD*: its tables' range decides)
         speed = 2.0 * float(np.max(np.linalg.norm(state.velocity, axis=1)))
         speed += float(np.linalg.norm(gravity)) ** 0.5 * float(np.max(state.box)) ** 0.5 * 2.0
         mu = 0.5 * float(state.mass.min())
