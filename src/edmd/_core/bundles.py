@@ -37,9 +37,17 @@ class Events(NamedTuple):
     pair_c: np.ndarray  #: (N,) int32 the partner's event counter at prediction time
     aux_t: np.ndarray  #: (N,) time of the single-particle event
     aux_k: np.ndarray  #: (N,) int32 its kind (layout.AUX_*)
-    pair_k: np.ndarray  #: (N,) int32 the pair event's kind (layout.PAIR_*; size 0 without kinds)
-    captured: np.ndarray  #: (N, K) int32 per-pair state: the partners inside each particle's square well (:mod:`.wells`)
-    captured_n: np.ndarray  #: (N,) int32 how many (size 0 without a well)
+
+
+class Pairs(NamedTuple):
+    """Pair interactions with several event kinds and per-pair state (square wells, :mod:`.wells`);
+    arrays of size 0 in other runs. Kept out of :class:`Events`: the bundles that the called cell
+    functions take by value stay small (three more arrays in ``Events`` halved the speed of
+    cell-mode gases, measured)."""
+
+    kind: np.ndarray  #: (N,) int32 the kind of each particle's pair event (layout.PAIR_*)
+    captured: np.ndarray  #: (N, K) int32 the partners inside each particle's square well
+    captured_n: np.ndarray  #: (N,) int32 how many
 
 
 class Grid(NamedTuple):
@@ -99,11 +107,12 @@ class Drive(NamedTuple):
     axes: np.ndarray  #: (2, 3) int64: velocity (row 0) and spin (row 1) components that random draws touch
 
 
-def new_events(n: int, captures: int = 0) -> Events:
-    """No event predicted yet for ``n`` particles; with ``captures > 0``, pair-event kinds and an
-    empty capture map of that many partners per particle (square wells)."""
+def new_events(n: int) -> Events:
+    """No event predicted yet for ``n`` particles."""
+    return Events(np.full(n, np.inf), np.full(n, -1, np.int32), np.zeros(n, np.int32), np.full(n, np.inf), np.zeros(n, np.int32))
+
+
+def new_pairs(n: int, captures: int = 0) -> Pairs:
+    """Pair-event kinds and an empty capture map of ``captures`` partners per particle (none: size 0)."""
     m = n if captures > 0 else 0
-    return Events(
-        np.full(n, np.inf), np.full(n, -1, np.int32), np.zeros(n, np.int32), np.full(n, np.inf), np.zeros(n, np.int32),
-        np.zeros(m, np.int32), np.zeros((m, captures), np.int32), np.zeros(m, np.int32),
-    )  # fmt: skip
+    return Pairs(np.zeros(m, np.int32), np.zeros((m, captures), np.int32), np.zeros(m, np.int32))

@@ -153,7 +153,7 @@ def rebin(p, t, P, image, grid, lists, geo, mode, fp, cbuf):
 
 
 @jit
-def finish_contact(p, i, j, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd, bath_t):
+def finish_contact(p, i, j, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd, bath_t, pairs):
     """Exception b) (physics.md §4.8): ``p``, still in a soft contact, meets a third body at ``t``.
 
     Its pending B event is executed now and, with post-collisional communication, that of its
@@ -164,11 +164,11 @@ def finish_contact(p, i, j, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, 
     execute_b(p, t, P, count, emd, geo)
     if ip[L.IP_EMD_COMM] and other != i and other != j and pj[other] == p:
         execute_b(other, t, P, count, emd, geo)
-        repredict(np.int64(other), t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd.pending_until, bath_t)
+        repredict(np.int64(other), t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd.pending_until, bath_t, pairs)
 
 
 @jit
-def emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt, cbuf, emd, bath_t):
+def emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt, cbuf, emd, bath_t, pairs):
     """A pair ``(i, j)`` (streamed to ``t``) reaches contact under eMD* (physics.md §4.8).
 
     Exception b) first: pending B events of either partner are executed now (and, with
@@ -187,7 +187,7 @@ def emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt, 
         cnt[L.C_EMD_EXC_B] += 1
         for p in (np.int64(i), np.int64(j)):
             if is_pending(emd, p):
-                finish_contact(p, i, j, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd, bath_t)
+                finish_contact(p, i, j, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd, bath_t, pairs)
     dx, dy, dz, gx, gy, gz = separation(P, i, j, t, geo)
     if exception_b and dx * gx + dy * gy + dz * gz >= 0.0:
         return CONTACT_DISCARDED

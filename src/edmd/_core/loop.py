@@ -182,13 +182,14 @@ def loop_variant(
 
 def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well):
     @jit
-    def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, etab, emd, drive, t_stop, max_events):
+    def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, etab, emd, drive, pairs, t_stop, max_events):
         """Process events in time order until ``t_stop`` (exclusive) or ``max_events``.
 
         Returns a status code of :mod:`.layout` (``ST_*``); ``acc[A_NOW]`` holds the time of the
         last processed event. The state is consistent at every return. ``cbuf`` is an int32 scratch
         array of 27 cells (the loop allocates nothing); ``emd`` holds the pending eMD* contacts
-        and the matrix-of-restitution table (:mod:`.emdstar`).
+        and the matrix-of-restitution table (:mod:`.emdstar`), ``pairs`` the square wells' event
+        kinds and capture map (:mod:`.wells`).
         """
         P, mass, omega, inertia, image, count, tlast = part
         ptb = emd.pending_until
@@ -228,7 +229,7 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well):
                 white_noise_kick(t, P, mass, count, drive, fp, acc, cnt, geo)
                 cnt[L.C_KICKS] += 1
                 for p in range(n):  # called, not inlined: no predictor copy for a rare global event
-                    repredict(np.int64(p), t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb, bath_t)
+                    repredict(np.int64(p), t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb, bath_t, pairs)
                 queue_update(q, i, drive.timer_t[L.TIMER_KICK])
                 continue
             # the rare events (stale pair events, shell exits, walls, B events) re-predict at the
@@ -252,7 +253,7 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well):
                     # pending soft contact first (the bath acts on the committed velocity)
                     if emd_on and is_pending(emd, i):
                         cnt[L.C_EMD_EXC_B] += 1
-                        finish_contact(i, i, -1, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd, bath_t)
+                        finish_contact(i, i, -1, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd, bath_t, pairs)
                     advance(P, i, t, geo)
                     integrate_kinetic(acc, t, geo, total_mass)
                     if bath_on and kind == L.AUX_BATH:
@@ -293,7 +294,7 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well):
                         return L.ST_LOG_FULL
                     edge = False  # a square well's capture, release or bounce
                     if well:
-                        edge = ev.pair_k[i] != L.PAIR_CORE
+                        edge = pairs.kind[i] != L.PAIR_CORE
                     if debug and not _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf, emd_on, reach if edge else 1.0):
                         return L.ST_OVERLAP
                     advance(P, i, t, geo)
@@ -303,10 +304,10 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well):
                     vn = vt = 0.0
                     if well:
                         if edge:
-                            well_event(i, j, ev.pair_k[i], P, mass, ev, geo, fp, acc, cnt)
+                            well_event(i, j, pairs.kind[i], P, mass, pairs, geo, fp, acc, cnt)
                             outcome = CONTACT_WELL
                     if emd_on:
-                        outcome = emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt, cbuf, emd, bath_t)
+                        outcome = emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt, cbuf, emd, bath_t, pairs)
                         if outcome == CONTACT_LIST_FULL:
                             return L.ST_LIST_FULL
                         if outcome == CONTACT_SOFT:
@@ -324,10 +325,10 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well):
                         _log_collision(clog, cnt, log_cap, t, i, j, vn, vt)
                     # a path of its own (as crossings have): a site shared by several event kinds
                     # mixes their branch histories, which cost cell-mode gases 20-30 % (measured)
-                    predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, well, reach)
+                    predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach)
                     predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t)
                     requeue(q, ev, i)
-                    predict_pair(j, t, P, count, ev, grid, lists, geo, mode, cbuf, well, reach)
+                    predict_pair(j, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach)
                     predict_aux(j, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t)
                     requeue(q, ev, j)
                     continue
@@ -336,7 +337,7 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well):
             for s in range(nrep):
                 p = i if s == 0 else j
                 if pair:
-                    predict_pair(p, t, P, count, ev, grid, lists, geo, mode, cbuf, well, reach)
+                    predict_pair(p, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach)
                 if aux:
                     predict_aux(p, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t)
                 requeue(q, ev, p)
@@ -346,7 +347,7 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well):
 
 def _make_setup(walls, emd_on, bath_on, well):
     @jit
-    def setup_events(part, ev, grid, lists, geo, fp, ip, cbuf, emd, drive, t, derive_captures):
+    def setup_events(part, ev, grid, lists, geo, fp, ip, cbuf, emd, drive, pairs, t, derive_captures):
         """Bin every particle (positions or list centres) and predict all events at time ``t``.
 
         With a square well and ``derive_captures`` (a state without a capture map), every pair
@@ -364,11 +365,11 @@ def _make_setup(walls, emd_on, bath_on, well):
             if not build_lists(P, grid, lists, geo, skin, reach, cbuf):
                 return False
             if well and derive_captures:
-                capture_by_distance(P, ev, lists, geo, reach, t)
+                capture_by_distance(P, pairs, lists, geo, reach, t)
         else:
             bin_all(P, geo, grid)
         for i in range(n):
-            predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, well, reach)
+            predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach)
             predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, emd.pending_until, bath_on, drive.bath_t)
         return True
 

@@ -60,11 +60,11 @@ def scan_cells(i, t, P, count, ev, grid, geo, cbuf, axis, step):
 
 
 @hot
-def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, well, reach):
+def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach):
     """Full re-prediction of the earliest contact of ``i`` (neighbour list or 3^d cells).
 
     With a square ``well`` (list mode only; ``reach`` = :math:`\\lambda`), the earliest event of any
-    kind with any listed partner, and its kind in ``ev.pair_k`` (:func:`.wells.closer_well`).
+    kind with any listed partner, and its kind in ``pairs.kind`` (:func:`.wells.closer_well`).
     """
     if mode == NB_LIST:
         nbl, nbl_n = lists.members, lists.size
@@ -75,13 +75,13 @@ def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, well, reach):
         bk = L.PAIR_CORE
         for s in range(nbl_n[i]):
             if well:
-                best, bj, bk = closer_well(xi, yi, zi, vxi, vyi, vzi, ri, P, ev, i, nbl[i, s], t, geo, reach, best, bj, bk)
+                best, bj, bk = closer_well(xi, yi, zi, vxi, vyi, vzi, ri, P, pairs, i, nbl[i, s], t, geo, reach, best, bj, bk)
             else:
                 best, bj = _closer(xi, yi, zi, vxi, vyi, vzi, ri, P, nbl[i, s], t, geo, best, bj)
         if bj >= 0:
             _set_pair(ev, count, i, t + best, bj)
             if well:
-                ev.pair_k[i] = bk
+                pairs.kind[i] = bk
             return
     ev.pair_t[i] = INF
     ev.pair_j[i] = -1
@@ -161,12 +161,12 @@ def requeue(q, ev, i):
 
 
 @jit
-def repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb, bath_t):
+def repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb, bath_t, pairs):
     """Both candidate events of ``i`` after its flight changed, and its calendar key.
 
     Compiled once and called (eMD* exception b, white-noise kicks); the loop inlines the same steps.
     """
-    predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, ip[L.IP_WELL] != 0, 1.0 + fp[L.FP_WELL_WIDTH])
+    predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, ip[L.IP_WELL] != 0, 1.0 + fp[L.FP_WELL_WIDTH])
     predict_aux(i, t, P, ev, grid, lists, geo, mode, ip[L.IP_WALLS] != 0, ip[L.IP_WALLS], ip[L.IP_EMD] != 0, fp[L.FP_SKIN], ptb, ip[L.IP_BATH] != 0, bath_t)
     requeue(q, ev, i)
 

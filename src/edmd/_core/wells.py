@@ -3,9 +3,9 @@ r"""Square wells (docs/physics.md §2.5): a pair interaction with several event 
 A pair of hard cores at distance :math:`\sigma_{ij}` attracts inside :math:`\lambda\sigma_{ij}`
 (``reach`` :math:`=\lambda`) with depth :math:`\varepsilon`. Whether a pair is inside its well is
 state, not geometry (at the edge, round-off could decide either way): the *capture map*
-``ev.captured[i, :ev.captured_n[i]]`` lists the partners inside ``i``'s well. It is symmetric,
+``pairs.captured[i, :pairs.captured_n[i]]`` lists the partners inside ``i``'s well. It is symmetric,
 independent of the neighbour lists (it survives their rebuilds) and saved with the state
-(``State.captured_pairs``). A pair's next event has a kind (``ev.pair_k``, ``PAIR_*``):
+(``State.captured_pairs``). A pair's next event has a kind (``pairs.kind``, ``PAIR_*``):
 
 * outside, approaching: **capture** when :math:`r = \lambda\sigma`;
 * inside, approaching: **core** collision when :math:`r = \sigma` (the collision rule);
@@ -28,28 +28,28 @@ from .predict import INF, contact_time, relative_to, separation
 
 
 @leaf
-def is_captured(ev, i, j):
+def is_captured(pairs, i, j):
     """Whether ``j`` is inside the well of ``i``."""
-    for s in range(ev.captured_n[i]):
-        if ev.captured[i, s] == j:
+    for s in range(pairs.captured_n[i]):
+        if pairs.captured[i, s] == j:
             return True
     return False
 
 
 @leaf
-def _link(ev, i, j):
-    s = ev.captured_n[i]
-    ev.captured[i, s] = j
-    ev.captured_n[i] = s + 1
+def _link(pairs, i, j):
+    s = pairs.captured_n[i]
+    pairs.captured[i, s] = j
+    pairs.captured_n[i] = s + 1
 
 
 @leaf
-def _unlink(ev, i, j):
-    last = ev.captured_n[i] - 1
+def _unlink(pairs, i, j):
+    last = pairs.captured_n[i] - 1
     for s in range(last + 1):
-        if ev.captured[i, s] == j:
-            ev.captured[i, s] = ev.captured[i, last]
-            ev.captured_n[i] = last
+        if pairs.captured[i, s] == j:
+            pairs.captured[i, s] = pairs.captured[i, last]
+            pairs.captured_n[i] = last
             return
 
 
@@ -75,11 +75,11 @@ def edge_exit_time(dx, dy, dz, gx, gy, gz, edge):
 
 
 @hot
-def closer_well(xi, yi, zi, vxi, vyi, vzi, ri, P, ev, i, j, t, geo, reach, best, bj, bk):
+def closer_well(xi, yi, zi, vxi, vyi, vzi, ri, P, pairs, i, j, t, geo, reach, best, bj, bk):
     """The earlier of the current best ``(dt, partner, kind)`` and the next event of the pair ``(i, j)``."""
     dx, dy, dz, gx, gy, gz = relative_to(xi, yi, zi, vxi, vyi, vzi, P, j, t, geo)
     sigma = ri + P[j, L.R]
-    if is_captured(ev, i, j):
+    if is_captured(pairs, i, j):
         dt = contact_time(dx, dy, dz, gx, gy, gz, sigma)
         kind = L.PAIR_CORE
         if dt == INF:  # moving apart, or missing the core: the edge, from inside
@@ -94,7 +94,7 @@ def closer_well(xi, yi, zi, vxi, vyi, vzi, ri, P, ev, i, j, t, geo, reach, best,
 
 
 @jit
-def well_event(i, j, kind, P, mass, ev, geo, fp, acc, cnt):
+def well_event(i, j, kind, P, mass, pairs, geo, fp, acc, cnt):
     r"""Capture, release or bounce of the pair ``(i, j)`` at the edge of its well (streamed to the event).
 
     With :math:`g_n = (\mathbf v_i - \mathbf v_j)\cdot\hat{\mathbf n}` (:math:`\hat{\mathbf n}` from
@@ -118,14 +118,14 @@ def well_event(i, j, kind, P, mass, ev, geo, fp, acc, cnt):
     barrier = 2.0 * depth / mu
     if kind == L.PAIR_CAPTURE:
         new = -math.sqrt(gn * gn + barrier)
-        _link(ev, i, j)
-        _link(ev, j, i)
+        _link(pairs, i, j)
+        _link(pairs, j, i)
         acc[L.A_KE] += depth
         cnt[L.C_WELL_IN] += 1
     elif gn * gn > barrier:
         new = math.sqrt(gn * gn - barrier)
-        _unlink(ev, i, j)
-        _unlink(ev, j, i)
+        _unlink(pairs, i, j)
+        _unlink(pairs, j, i)
         acc[L.A_KE] -= depth
         cnt[L.C_WELL_OUT] += 1
     else:
@@ -139,10 +139,10 @@ def well_event(i, j, kind, P, mass, ev, geo, fp, acc, cnt):
 
 
 @jit
-def capture_by_distance(P, ev, lists, geo, reach, t):
+def capture_by_distance(P, pairs, lists, geo, reach, t):
     """Capture every listed pair closer than the well's edge at time ``t`` (for a state that
     carries no capture map)."""
-    ev.captured_n[:] = 0
+    pairs.captured_n[:] = 0
     nbl, nbl_n = lists.members, lists.size
     for i in range(P.shape[0]):
         for s in range(nbl_n[i]):
@@ -151,23 +151,23 @@ def capture_by_distance(P, ev, lists, geo, reach, t):
                 dx, dy, dz, _gx, _gy, _gz = separation(P, i, j, t, geo)
                 edge = reach * (P[i, L.R] + P[j, L.R])
                 if dx * dx + dy * dy + dz * dz < edge * edge:
-                    _link(ev, i, j)
-                    _link(ev, j, i)
+                    _link(pairs, i, j)
+                    _link(pairs, j, i)
 
 
-def captured_pairs(ev) -> np.ndarray:
+def captured_pairs(pairs) -> np.ndarray:
     """The capture map as ``(M, 2)`` internal indices, each pair once (``i < j``)."""
-    filled = np.arange(ev.captured.shape[1])[None, :] < ev.captured_n[:, None]
-    rows, cols = np.nonzero(filled)[0], ev.captured[filled]
+    filled = np.arange(pairs.captured.shape[1])[None, :] < pairs.captured_n[:, None]
+    rows, cols = np.nonzero(filled)[0], pairs.captured[filled]
     keep = rows < cols
     return np.stack([rows[keep], cols[keep]], axis=1).astype(np.int64)
 
 
-def load_captured(ev, pairs: np.ndarray):
+def load_captured(pairs, captured: np.ndarray):
     """Fill the capture map from ``(M, 2)`` internal indices (each pair once; at most ``K`` per particle)."""
-    both = np.concatenate([pairs, pairs[:, ::-1]]).astype(np.int64)
+    both = np.concatenate([captured, captured[:, ::-1]]).astype(np.int64)
     both = both[np.lexsort((both[:, 1], both[:, 0]))]
-    counts = np.bincount(both[:, 0], minlength=len(ev.captured_n))
+    counts = np.bincount(both[:, 0], minlength=len(pairs.captured_n))
     slot = np.arange(len(both)) - (np.cumsum(counts) - counts)[both[:, 0]]
-    ev.captured[both[:, 0], slot] = both[:, 1]
-    ev.captured_n[:] = counts
+    pairs.captured[both[:, 0], slot] = both[:, 1]
+    pairs.captured_n[:] = counts

@@ -20,7 +20,7 @@ from numba import typeof
 
 from .._core import layout as L
 from .._core.bath import bath_schedule
-from .._core.bundles import Drive, Lists, Particles, new_events
+from .._core.bundles import Drive, Lists, Particles, new_events, new_pairs
 from .._core.cells import new_grid
 from .._core.jit import in_disk_cache
 from .._core.loop import GEO_ARG, loop_variant
@@ -254,7 +254,8 @@ class Engine:
         tlast = state.last_collision[order] - self.t_origin
         self.part = Particles(P, state.mass[order].copy(), omega, state.inertia[order].copy(), image, np.zeros(n, np.int32), tlast)
         self.emd = emd_bundle(n, self.emd_rule, self._pending_arrays(state, order))
-        self.ev = new_events(n, 0 if self.well is None else self.well.capacity(state.radius, self.dim))
+        self.ev = new_events(n)
+        self.pairs = new_pairs(n, 0 if self.well is None else self.well.capacity(state.radius, self.dim))
         self._derive_captures = self.well is not None and state.captured_pairs is None
         if self.well is not None and not self._derive_captures:
             self._load_captured(state, order)
@@ -299,20 +300,20 @@ class Engine:
         inv = np.empty(self.n, np.int64)
         inv[order] = np.arange(self.n)
         counts = np.bincount(pairs.ravel(), minlength=self.n)
-        if counts.size and counts.max() > self.ev.captured.shape[1]:
+        if counts.size and counts.max() > self.pairs.captured.shape[1]:
             worst = int(np.argmax(counts))
             raise StateError(
                 f"particle {worst} is captured by {int(counts[worst])} partners, more than hard cores can fit "
-                f"inside its square well ({self.ev.captured.shape[1]}): the captured pairs do not belong to this state"
+                f"inside its square well ({self.pairs.captured.shape[1]}): the captured pairs do not belong to this state"
             )
-        load_captured(self.ev, inv[pairs])
+        load_captured(self.pairs, inv[pairs])
 
     @property
     def potential_energy(self) -> float:
         """The square wells' potential energy, :math:`-\\varepsilon` per captured pair (0 without wells)."""
         if self.well is None:
             return 0.0
-        return -self.well.depth * 0.5 * float(self.ev.captured_n.sum())
+        return -self.well.depth * 0.5 * float(self.pairs.captured_n.sum())
 
     def _trim_lists(self):
         """Shrink list rows to the fullest list plus a margin (lists grow again on overflow)."""
@@ -341,7 +342,7 @@ class Engine:
             cap = max(self.list_capacity, 1) if self.mode == "list" else 1
             nl = n if self.mode == "list" else 1
             self.lists = Lists(np.zeros((nl, cap), np.int32), np.zeros(nl, np.int32), np.zeros((nl, 3)))
-            if self.loop.setup_events(self.part, self.ev, self.grid, self.lists, geo, self.fp, self.ip, self.cbuf, self.emd, self.drive, 0.0, self._derive_captures):
+            if self.loop.setup_events(self.part, self.ev, self.grid, self.lists, geo, self.fp, self.ip, self.cbuf, self.emd, self.drive, self.pairs, 0.0, self._derive_captures):
                 break
             self.list_capacity = int(self.list_capacity * 1.5) + 4
         if self.mode == "list":
@@ -367,7 +368,7 @@ class Engine:
         """Compile the event loop now (a call that processes no event), so that timings exclude it."""
         self.loop.run_events(
             self.part, self.ev, self.q, self.grid, self.lists, self.geo, self.fp, self.ip,
-            self.acc, self.cnt, self.clog, self.cbuf, self.etab, self.emd, self.drive, -math.inf, 0,
+            self.acc, self.cnt, self.clog, self.cbuf, self.etab, self.emd, self.drive, self.pairs, -math.inf, 0,
         )  # fmt: skip
 
     def advance(self, t_stop: float, max_events: int | float = math.inf) -> int:
@@ -386,7 +387,7 @@ class Engine:
             before = int(self.cnt[L.C_EVENTS])
             status = self.loop.run_events(
                 self.part, self.ev, self.q, self.grid, self.lists, self.geo, self.fp, self.ip,  # (a resync re-bases the wall's phase)
-                self.acc, self.cnt, self.clog, self.cbuf, self.etab, self.emd, self.drive, t_stop - self.t_origin, chunk,
+                self.acc, self.cnt, self.clog, self.cbuf, self.etab, self.emd, self.drive, self.pairs, t_stop - self.t_origin, chunk,
             )  # fmt: skip
             budget -= int(self.cnt[L.C_EVENTS]) - before
             if status == L.ST_LOG_FULL:
@@ -482,7 +483,7 @@ class Engine:
             pending_velocity=self.emd.pending_dv[inv, :d],
             pending_until=self.emd.pending_until[inv] + self.t_origin,
             pending_partner=np.where(self.emd.partner[inv] >= 0, self.tag[np.maximum(self.emd.partner[inv], 0)], -1),
-            captured_pairs=None if self.well is None else self.tag[captured_pairs(self.ev)],
+            captured_pairs=None if self.well is None else self.tag[captured_pairs(self.pairs)],
             check_overlaps=False,
         )
 
