@@ -22,6 +22,8 @@ from .files.thermo import Thermo, read_thermo
 from .physics.thermostats import Andersen, WhiteNoise
 from .physics.vibration import VibratingWall
 from .physics.wells import SquareWell
+from .physics.growth import Growth
+from .run.compress import compress
 from .files.trajectory import Trajectory, read_state, write_state
 from .run.updaters import Updater, VelocityRescale
 
@@ -53,6 +55,8 @@ __all__ = [
     "VelocityRescale",
     "VibratingWall",
     "SquareWell",
+    "Growth",
+    "compress",
     "WhiteNoise",
     "collide",
     "lattice",

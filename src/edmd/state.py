@@ -319,3 +319,22 @@ class State:
     def copy(self) -> State:
         """Deep copy."""
         return dataclasses.replace(self, check_overlaps=False)
+
+
+def rescale_temperature(state: State, kT: float) -> State:
+    """Scale ``state``'s velocities about their mean (and pending eMD* increments) to temperature ``kT``, in place.
+
+    Example:
+        >>> import edmd
+        >>> s = edmd.maxwell_boltzmann(edmd.lattice(108, 0.2), kT=2.0, seed=1)
+        >>> round(rescale_temperature(s, 1.0).temperature(), 12)
+        1.0
+    """
+    temperature = state.temperature()
+    if not temperature > 0:
+        raise ValueError(f"rescaling the velocities at t = {state.time}: the temperature is {temperature}, nothing to rescale")
+    scale = np.sqrt(kT / temperature)
+    u = state.momentum() / state.mass.sum()
+    state.velocity = u + scale * (state.velocity + state.pending_velocity - u) - scale * state.pending_velocity
+    state.pending_velocity = scale * state.pending_velocity
+    return state

@@ -31,6 +31,7 @@ CONTACT_DISCARDED = 0  # exception b) left the pair separating: nothing happens
 CONTACT_SOFT = 1  # an A event: the pair was relocated, its B events are pending
 CONTACT_INSTANT = 2  # the instantaneous rule (exception a, overlaps, a failed solve)
 CONTACT_WELL = 3  # a square-well event (capture, release, bounce): no collision
+CONTACT_GROWN = 4  # a collision of growing particles (growth.py)
 
 # global timers: calendar entry N + TIMER_* (see forcing.py)
 TIMER_KICK = 0  # white-noise forcing
@@ -78,11 +79,12 @@ COUNTERS = (
     "well_captures",  # square well: pairs entering the well
     "well_releases",  # captured pairs leaving it
     "well_bounces",  # captured pairs reflected at the edge (too slow to escape)
+    "grow_next",  # growing radii: index k of the next segment end t0 + k segment (carried across reloads)
 )
 (
     C_EVENTS, C_COLL, C_STALE, C_AUX, C_REBUILD, C_WALL, C_LOG, C_ZENO_RUN, C_BAD_I, C_BAD_J,
     C_TC_ELASTIC, C_EMD_A, C_EMD_EXC_A, C_EMD_EXC_B, C_EMD_FALLBACK, C_BATH, C_KICKS, C_KICK_NEXT,
-    C_WELL_IN, C_WELL_OUT, C_WELL_BOUNCE,
+    C_WELL_IN, C_WELL_OUT, C_WELL_BOUNCE, C_GROW_NEXT,
 ) = range(len(COUNTERS))  # fmt: skip
 N_COUNTERS = len(COUNTERS)
 
@@ -167,11 +169,17 @@ FPARAMS = (
     "kick_start",  # absolute time of kick 0
     "well_width",  # square well: its edge is at (1 + well_width) sigma_ij (0: no well)
     "well_depth",  # and its depth epsilon (energy)
+    "grow_rate",  # growing radii (growth.py): R(t) = R(t0) (1 + grow_rate (t - t0)) (0: no growth)
+    "grow_start",  # t0, absolute
+    "grow_segment",  # the engine reloads (and rescales velocities) at t0 + k grow_segment
+    "grow_local",  # the rate relative to the radii of the last load, per unit local time (set at each load)
+    "list_margin",  # neighbour lists reach (1 + list_margin) x their interaction range (set at each load)
 )
 (
     FP_SKIN, FP_DEBUG_TOL, FP_EN, FP_BETA, FP_MU, FP_TC, FP_VISCO_K, FP_VISCO_A, FP_ETAB_INV,
     FP_WALL_EN, FP_WALL_BETA, FP_WALL_MU, FP_MTOT, FP_SOFT_A, FP_SOFT_B, FP_EMD_RTOL, FP_BATH_KT,
     FP_BATH_RATE, FP_KICK_XI0, FP_KICK_INTERVAL, FP_KICK_START, FP_WELL_WIDTH, FP_WELL_DEPTH,
+    FP_GROW_RATE, FP_GROW_START, FP_GROW_SEGMENT, FP_GROW_LOCAL, FP_LIST_MARGIN,
 ) = range(len(FPARAMS))  # fmt: skip
 N_FP = len(FPARAMS)
 

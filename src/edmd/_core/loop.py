@@ -22,11 +22,12 @@ from .collide import collide_pair, collide_wall
 from .emdstar import emd_contact, execute_b, finish_contact, is_pending
 from .forcing import white_noise_kick
 from .jit import hot, jit
-from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTACT_SOFT, CONTACT_WELL, NB_LIST, NORMAL_SOFT, TANGENT_SMOOTH
+from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTACT_GROWN, CONTACT_SOFT, CONTACT_WELL, NB_LIST, NORMAL_SOFT, TANGENT_SMOOTH
 from .nblist import build_lists, rebuild_list
 from .predict import advance, separation
 from .queue import queue_top, queue_update
 from .schedule import cross_cell, predict_aux, predict_pair, repredict, requeue, wrap_into_box
+from .growth import collide_growing
 from .wells import capture_by_distance, well_event
 
 
@@ -45,9 +46,9 @@ def _bad_contact(p, k, t, P, geo, tol, acc, cnt, exact, scale):
 
 
 @jit
-def _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf, contact_only, scale):
-    """Debug mode: the colliding pair touches (|r_ij| = sigma, or ``scale`` sigma at a square
-    well's edge) and neither partner overlaps a candidate.
+def _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf, contact_only, scale, grown):
+    """Debug mode: the colliding pair touches (|r_ij| = ``scale`` sigma: 1, a square well's edge,
+    or grown radii) and neither partner overlaps a candidate (cores ``grown`` times the stored radii).
 
     ``contact_only`` (eMD*, where partners of soft contacts overlap by design) skips the second test.
 
@@ -61,12 +62,12 @@ def _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf, contact
     for p in (np.int64(i), np.int64(j)):
         if mode == NB_LIST:
             for s in range(lists.size[p]):
-                if _bad_contact(p, lists.members[p, s], t, P, geo, tol, acc, cnt, False, 1.0):
+                if _bad_contact(p, lists.members[p, s], t, P, geo, tol, acc, cnt, False, grown):
                     return False
         else:
             nc, s, k = walk_around(grid, grid.cell[p], geo, cbuf)
             while k >= 0:
-                if k != p and _bad_contact(p, k, t, P, geo, tol, acc, cnt, False, 1.0):
+                if k != p and _bad_contact(p, k, t, P, geo, tol, acc, cnt, False, grown):
                     return False
                 nc, s, k = walk_next(grid, cbuf, nc, s, k)
     return True
@@ -114,7 +115,15 @@ class Loop(NamedTuple):
 
 
 def variant_name(
-    walls: bool, emd_on: bool, rough: bool, normal: int, debug: bool = False, bath: bool = False, noise: bool = False, well: bool = False
+    walls: bool,
+    emd_on: bool,
+    rough: bool,
+    normal: int,
+    debug: bool = False,
+    bath: bool = False,
+    noise: bool = False,
+    well: bool = False,
+    grow: bool = False,
 ) -> str:
     """Readable name of a feature set, e.g. ``"walls+rough+soft"`` (``"plain"``: none; ``soft``: the
     central restitution of a contact law, e.g. viscoelastic spheres).
@@ -133,6 +142,8 @@ def variant_name(
         parts.append("noise")
     if well:
         parts.append("well")
+    if grow:
+        parts.append("grow")
     if debug:
         parts.append("debug")
     return "+".join(parts) or "plain"
@@ -143,7 +154,15 @@ _SETUPS: dict[tuple, Callable] = {}
 
 
 def loop_variant(
-    walls: bool, emd_on: bool, rough: bool, normal: int, debug: bool = False, bath: bool = False, noise: bool = False, well: bool = False
+    walls: bool,
+    emd_on: bool,
+    rough: bool,
+    normal: int,
+    debug: bool = False,
+    bath: bool = False,
+    noise: bool = False,
+    well: bool = False,
+    grow: bool = False,
 ) -> Loop:
     """The event loop specialised to the physics of a run, compiled (and cached on disk) on first use.
 
@@ -164,6 +183,8 @@ def loop_variant(
         noise: white-noise kicks, a global timer in the calendar (:mod:`.forcing`).
         well: square wells, pair events of several kinds with a capture map (:mod:`.wells`;
             neighbour lists only).
+        grow: growing radii, Lubachevsky–Stillinger compression (:mod:`.growth`; neighbour lists,
+            periodic boxes and smooth constant-restitution rules only).
 
     Example:
         >>> from edmd._core import layout as L
@@ -171,16 +192,16 @@ def loop_variant(
         >>> loop is loop_variant(False, False, False, L.NORMAL_CONST)
         True
     """
-    key = (bool(walls), bool(emd_on), bool(rough), int(normal), bool(debug), bool(bath), bool(noise), bool(well))
+    key = (bool(walls), bool(emd_on), bool(rough), int(normal), bool(debug), bool(bath), bool(noise), bool(well), bool(grow))
     if key not in _VARIANTS:
-        aux = (key[0], key[1], key[5], key[7])  # the set-up depends on the single-particle events and wells only
+        aux = (key[0], key[1], key[5], key[7], key[8])  # the set-up depends on the single-particle events, wells and growth only
         if aux not in _SETUPS:
             _SETUPS[aux] = _make_setup(*aux)
         _VARIANTS[key] = Loop(_make_loop(*key), _SETUPS[aux], variant_name(*key))
     return _VARIANTS[key]
 
 
-def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well):
+def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well, grow):
     @jit
     def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, etab, emd, drive, pairs, t_stop, max_events):
         """Process events in time order until ``t_stop`` (exclusive) or ``max_events``.
@@ -202,6 +223,8 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well):
         total_mass = fp[L.FP_MTOT]
         skin = fp[L.FP_SKIN]
         reach = 1.0 + fp[L.FP_WELL_WIDTH]
+        list_reach = reach * (1.0 + fp[L.FP_LIST_MARGIN])
+        rate = fp[L.FP_GROW_LOCAL]
         wall_axes = ip[L.IP_WALLS]
         origin = drive.origin[0]
         done = 0
@@ -270,7 +293,7 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well):
                     advance(P, i, t, geo)
                     wrap_into_box(P, image, i, geo)
                     cnt[L.C_REBUILD] += 1
-                    if not rebuild_list(i, P, grid, lists, geo, skin, reach, cbuf):
+                    if not rebuild_list(i, P, grid, lists, geo, skin, list_reach, cbuf):
                         return L.ST_LIST_FULL
                 elif kind >= L.AUX_CELL and kind < L.AUX_WALL:  # a cell crossing (the most frequent
                     # event of dilute gases): a path of its own
@@ -295,7 +318,8 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well):
                     edge = False  # a square well's capture, release or bounce
                     if well:
                         edge = pairs.kind[i] != L.PAIR_CORE
-                    if debug and not _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf, emd_on, reach if edge else 1.0):
+                    grown = 1.0 + rate * t if grow else 1.0  # growing radii: sigma(t) / sigma at the load
+                    if debug and not _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf, emd_on, reach if edge else grown, grown):
                         return L.ST_OVERLAP
                     advance(P, i, t, geo)
                     advance(P, j, t, geo)
@@ -314,6 +338,9 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well):
                             vn, vt = acc[L.A_EMD_VN], acc[L.A_EMD_VT]
                         elif outcome == CONTACT_INSTANT:
                             cnt[L.C_EMD_FALLBACK] += 1
+                    if grow:
+                        vn = collide_growing(P, mass, i, j, geo, fp, acc, rate)
+                        outcome = CONTACT_GROWN
                     if outcome == CONTACT_INSTANT and rough:
                         vn, vt = collide_pair(t, P, mass, omega, inertia, tlast, i, j, geo, fp, ip, etab, acc, cnt, ip[L.IP_TANGENT], normal)
                     elif outcome == CONTACT_INSTANT:
@@ -325,10 +352,10 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well):
                         _log_collision(clog, cnt, log_cap, t, i, j, vn, vt)
                     # a path of its own (as crossings have): a site shared by several event kinds
                     # mixes their branch histories, which cost cell-mode gases 20-30 % (measured)
-                    predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach)
+                    predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate)
                     predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t)
                     requeue(q, ev, i)
-                    predict_pair(j, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach)
+                    predict_pair(j, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate)
                     predict_aux(j, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t)
                     requeue(q, ev, j)
                     continue
@@ -337,7 +364,7 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well):
             for s in range(nrep):
                 p = i if s == 0 else j
                 if pair:
-                    predict_pair(p, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach)
+                    predict_pair(p, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate)
                 if aux:
                     predict_aux(p, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t)
                 requeue(q, ev, p)
@@ -345,7 +372,7 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well):
     return run_events
 
 
-def _make_setup(walls, emd_on, bath_on, well):
+def _make_setup(walls, emd_on, bath_on, well, grow):
     @jit
     def setup_events(part, ev, grid, lists, geo, fp, ip, cbuf, emd, drive, pairs, t, derive_captures):
         """Bin every particle (positions or list centres) and predict all events at time ``t``.
@@ -360,16 +387,17 @@ def _make_setup(walls, emd_on, bath_on, well):
         n = P.shape[0]
         skin = fp[L.FP_SKIN]
         reach = 1.0 + fp[L.FP_WELL_WIDTH]
+        rate = fp[L.FP_GROW_LOCAL]
         wall_axes = ip[L.IP_WALLS]
         if mode == NB_LIST:
-            if not build_lists(P, grid, lists, geo, skin, reach, cbuf):
+            if not build_lists(P, grid, lists, geo, skin, reach * (1.0 + fp[L.FP_LIST_MARGIN]), cbuf):
                 return False
             if well and derive_captures:
                 capture_by_distance(P, pairs, lists, geo, reach, t)
         else:
             bin_all(P, geo, grid)
         for i in range(n):
-            predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach)
+            predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate)
             predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, emd.pending_until, bath_on, drive.bath_t)
         return True
 

@@ -23,6 +23,7 @@ from .nblist import shell_exit_time
 from .predict import INF, contact_time, flight, gap_time, relative_to
 from .queue import queue_update
 from .walls import is_moving, moving_wall_time
+from .growth import closer_grow
 from .wells import closer_well
 
 
@@ -60,11 +61,12 @@ def scan_cells(i, t, P, count, ev, grid, geo, cbuf, axis, step):
 
 
 @hot
-def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach):
+def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate):
     """Full re-prediction of the earliest contact of ``i`` (neighbour list or 3^d cells).
 
     With a square ``well`` (list mode only; ``reach`` = :math:`\\lambda`), the earliest event of any
-    kind with any listed partner, and its kind in ``pairs.kind`` (:func:`.wells.closer_well`).
+    kind with any listed partner, and its kind in ``pairs.kind`` (:func:`.wells.closer_well`). With
+    ``grow`` (list mode only), the contacts of radii growing at the local ``rate`` (:func:`.growth.closer_grow`).
     """
     if mode == NB_LIST:
         nbl, nbl_n = lists.members, lists.size
@@ -74,7 +76,9 @@ def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, 
         bj = -1
         bk = L.PAIR_CORE
         for s in range(nbl_n[i]):
-            if well:
+            if grow:
+                best, bj = closer_grow(xi, yi, zi, vxi, vyi, vzi, ri, P, nbl[i, s], t, geo, rate, best, bj)
+            elif well:
                 best, bj, bk = closer_well(xi, yi, zi, vxi, vyi, vzi, ri, P, pairs, i, nbl[i, s], t, geo, reach, best, bj, bk)
             else:
                 best, bj = _closer(xi, yi, zi, vxi, vyi, vzi, ri, P, nbl[i, s], t, geo, best, bj)
@@ -166,7 +170,7 @@ def repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb, 
 
     Compiled once and called (eMD* exception b, white-noise kicks); the loop inlines the same steps.
     """
-    predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, ip[L.IP_WELL] != 0, 1.0 + fp[L.FP_WELL_WIDTH])
+    predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, ip[L.IP_WELL] != 0, 1.0 + fp[L.FP_WELL_WIDTH], False, 0.0)
     predict_aux(i, t, P, ev, grid, lists, geo, mode, ip[L.IP_WALLS] != 0, ip[L.IP_WALLS], ip[L.IP_EMD] != 0, fp[L.FP_SKIN], ptb, ip[L.IP_BATH] != 0, bath_t)
     requeue(q, ev, i)
 

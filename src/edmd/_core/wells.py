@@ -14,7 +14,7 @@ independent of the neighbour lists (it survives their rebuilds) and saved with t
 
 The capture map holds at most ``K`` partners: hard cores of radius :math:`\ge R_{\min}` inside a
 ball of radius :math:`(2\lambda + 1)R_{\max}`, so ``K`` :math:`\le ((2\lambda+1)R_{\max}/R_{\min})^d`
-(:func:`edmd.physics.wells.capture_capacity`).
+(:meth:`edmd.SquareWell.capacity`).
 """
 
 import math
@@ -59,19 +59,21 @@ def edge_exit_time(dx, dy, dz, gx, gy, gz, edge):
 
     The larger root of :math:`|\mathbf d + \mathbf g t| = \lambda\sigma`, cancellation-free. A pair at
     or (by round-off) beyond the edge that moves inwards, as right after its capture or bounce,
-    crosses the well first; one that moves outwards leaves now (``0``).
+    crosses the well first (taken as starting on the edge, so that a grazing pair still advances
+    the clock); one that moves outwards leaves now (``0``).
     """
     a = gx * gx + gy * gy + gz * gz
     b = dx * gx + dy * gy + dz * gz
     c = dx * dx + dy * dy + dz * dz - edge * edge
-    disc = b * b - a * c
     if a == 0.0:
         return INF
-    if disc <= 0.0:  # beyond the edge by round-off, passing by: leave now
-        return 0.0
     if b > 0.0:
+        disc = b * b - a * c
+        if disc <= 0.0:  # beyond the edge by round-off, moving out: leave now
+            return 0.0
         return max(0.0, -c / (b + math.sqrt(disc)))
-    return (math.sqrt(disc) - b) / a
+    c = min(c, 0.0)
+    return (math.sqrt(b * b - a * c) - b) / a
 
 
 @hot

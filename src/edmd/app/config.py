@@ -64,7 +64,8 @@ class SystemConfig(_Section):
     packing_fraction: float = Field(0.3, gt=0, lt=1)
     kT: float = Field(1.0, ge=0, description="initial temperature (Maxwell-Boltzmann)")
     seed: int = Field(1, ge=0, description="random seed (a non-negative integer)")
-    init: Literal["lattice", "random"] = "lattice"
+    init: Literal["lattice", "random", "compress"] = "lattice"
+    compress_rate: float = Field(0.02, gt=0, allow_inf_nan=False, description="init = 'compress': radii grow as R(0) (1 + rate t)")
     lattice: Literal["fcc", "sc", "hex", "square"] | None = None
     radius: Annotated[float, Field(gt=0)] | RadiusDistribution = 0.5
     mass: float = Field(1.0, gt=0)
@@ -93,8 +94,10 @@ class SystemConfig(_Section):
             raise ValueError(f"aspect needs {self.dim} numbers")
         if self.n == 1 and self.kT > 0 and self.from_file is None:
             raise ValueError("kT: a single particle at zero total momentum is at rest and has no temperature; set kT = 0")
-        if self.aspect is not None and self.init != "random":
-            raise ValueError("'aspect' shapes the box of init = 'random' only (a lattice fixes its own box)")
+        if self.aspect is not None and self.init == "lattice":
+            raise ValueError("'aspect' shapes the box of init = 'random' or 'compress' only (a lattice fixes its own box)")
+        if self.init == "compress" and self.kT <= 0:
+            raise ValueError("init = 'compress' needs kT > 0 (the particles fly while they grow)")
         return self
 
 
@@ -391,6 +394,8 @@ class Config(_Section):
             raise ValueError("walls.axes: a 2D system has no z axis")
         if self.walls.viscoelastic and self.collision.young is None:
             raise ValueError("walls.viscoelastic needs a viscoelastic material in [collision] (young, poisson, A)")
+        if self.system.init == "compress" and self.walls.axes:
+            raise ValueError("system.init = 'compress' needs a periodic box (walls.axes empty): walls do not grow with the particles")
         if self.vibration is not None and self.vibration.axis not in self.walls.axes:
             raise ValueError(f"vibration.axis = {self.vibration.axis!r} must be one of walls.axes (the vibrating wall is one of its walls)")
         return self
@@ -555,7 +560,9 @@ n = 4000                  # number of particles
 packing_fraction = 0.3    # eta = total particle volume / box volume
 kT = 1.0                  # initial temperature (Maxwell-Boltzmann, zero total momentum)
 seed = 1                  # random seed: runs are reproducible
-init = "lattice"          # "lattice" (fcc/sc in 3D, hex/square in 2D) or "random" (low density)
+init = "lattice"          # "lattice" (fcc/sc in 3D, hex/square in 2D), "random" (low density) or
+                          # "compress" (random at low density, grown to packing_fraction: dense fluids, glasses)
+# compress_rate = 0.02    # init = "compress": radii grow as R(0) (1 + rate t) (slower: closer to equilibrium)
 # lattice = "fcc"
 radius = 0.5              # or a distribution, e.g. { kind = "uniform", min = 0.4, max = 0.6 }
 mass = 1.0                # or set density = ... to give mass = density * particle volume

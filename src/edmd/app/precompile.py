@@ -10,7 +10,8 @@ restitution of a contact law used instantaneously: viscoelastic spheres, ``visco
 another name for it), ``emdstar``,
 ``bath`` (the Andersen heat bath, :class:`edmd.Andersen`), ``noise`` (white-noise kicks,
 :class:`edmd.WhiteNoise`), ``vibration`` (a vibrating wall, :class:`edmd.VibratingWall`: the
-walls variant compiled for its geometry), ``well`` (square wells, :class:`edmd.SquareWell`) and ``debug`` (the per-collision checks
+walls variant compiled for its geometry), ``well`` (square wells, :class:`edmd.SquareWell`), ``grow``
+(growing particles, :func:`edmd.compress`) and ``debug`` (the per-collision checks
 of ``[engine] debug``), e.g. ``walls+rough+soft``.
 """
 
@@ -23,7 +24,7 @@ from .._core import layout as L
 from .._core.jit import in_disk_cache
 from .._core.loop import GEO_ARG, loop_variant
 
-FEATURES = ("walls", "rough", "soft", "emdstar", "bath", "noise", "vibration", "well", "debug")
+FEATURES = ("walls", "rough", "soft", "emdstar", "bath", "noise", "vibration", "well", "grow", "debug")
 #: other names of features
 SYNONYMS = {"viscoelastic": "soft"}
 
@@ -58,6 +59,8 @@ def parse_features(spec: str) -> frozenset[str]:
         raise FeatureError("white-noise kicks and eMD* cannot be combined")
     if {"emdstar", "well"} <= found:
         raise FeatureError("square wells and eMD* cannot be combined")
+    if "grow" in found and found - {"grow", "debug"}:
+        raise FeatureError("growing particles (compression) are smooth elastic hard spheres in a periodic box: grow takes no other feature")
     if "vibration" in found and "walls" not in found:
         raise FeatureError("a vibrating wall is one of the walls: vibration needs walls")
     return found
@@ -75,13 +78,13 @@ def all_feature_sets() -> list[frozenset[str]]:
     driven = [s | extra for s in sets for extra in ({"bath"}, {"noise"}, {"bath", "noise"}) if not ("emdstar" in s and "noise" in extra)]
     vibrated = [s | {"vibration"} for s in sets if "walls" in s]
     wells = [s | {"well"} for s in sets if "emdstar" not in s]
-    return sets + driven + vibrated + wells
+    return sets + driven + vibrated + wells + [frozenset({"grow"})]
 
 
 def _variant(features: frozenset[str]):
     normal = L.NORMAL_SOFT if features & {"soft", "emdstar"} else L.NORMAL_CONST
     return loop_variant(
-        *(name in features for name in ("walls", "emdstar", "rough")), normal, *(name in features for name in ("debug", "bath", "noise", "well"))
+        *(name in features for name in ("walls", "emdstar", "rough")), normal, *(name in features for name in ("debug", "bath", "noise", "well", "grow"))
     )
 
 
@@ -93,6 +96,7 @@ def _example(features: frozenset[str]):
     from ..physics.emdstar import EMDStar
     from ..physics.thermostats import Andersen, WhiteNoise
     from ..physics.vibration import VibratingWall
+    from ..physics.growth import Growth
     from ..physics.wells import SquareWell
 
     hertz = Hertz(young=1e5, poisson=0.3, A=1e-3)
@@ -108,7 +112,10 @@ def _example(features: frozenset[str]):
         kicks = WhiteNoise(xi0=1.0, interval=0.1) if "noise" in features else None
         shaker = VibratingWall(amplitude=0.1, omega=1.0, phase=-1.5707963267948966) if "vibration" in features else None
         well = SquareWell(width=1.5, depth=0.5) if "well" in features else None
-        return edmd.Simulation(state, collision=rule, thermostat=bath, forcing=kicks, vibration=shaker, well=well, engine={"debug": "debug" in features})
+        growth = Growth(rate=0.01) if "grow" in features else None
+        return edmd.Simulation(
+            state, collision=None if growth else rule, thermostat=bath, forcing=kicks, vibration=shaker, well=well, growth=growth, engine={"debug": "debug" in features}
+        )
 
 
 def compile_features(features: frozenset[str]) -> tuple[str, float, bool]:

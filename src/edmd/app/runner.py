@@ -20,6 +20,7 @@ from ..run.engine import EngineError, EngineOptions
 from ..run.memory import check_memory
 from ..initial import lattice, maxwell_boltzmann, random_packing
 from ..run.observer import Observer
+from ..run.compress import compress
 from ..run.simulation import Simulation
 from ..state import State
 from ..files.thermo import Thermo, read_thermo
@@ -56,10 +57,23 @@ def build_state(cfg: Config) -> State:
         n=s.n, packing_fraction=s.packing_fraction, dim=s.dim, radius=radius, mass=s.mass, density=s.density, seed=s.seed, periodic=periodic
     )
     if s.init == "lattice":
-        state = lattice(kind=s.lattice, **common)
-    else:
-        state = random_packing(aspect=s.aspect, **common)
-    return maxwell_boltzmann(state, s.kT, seed=s.seed + 1)
+        return maxwell_boltzmann(lattice(kind=s.lattice, **common), s.kT, seed=s.seed + 1)
+    if s.init == "compress":
+        return compressed_start(common, s.aspect, s.kT, s.compress_rate)
+    return maxwell_boltzmann(random_packing(aspect=s.aspect, **common), s.kT, seed=s.seed + 1)
+
+
+def compressed_start(common: dict, aspect, kT: float, rate: float) -> State:
+    """``init = "compress"``: a random start at a low packing fraction, grown to the target by
+    :func:`edmd.compress` and scaled back to the configured radii (same packing fraction, smaller box)."""
+    target = common["packing_fraction"]
+    start = random_packing(aspect=aspect, **{**common, "packing_fraction": min(0.1, 0.5 * target)})
+    grown = compress(maxwell_boltzmann(start, kT, seed=common["seed"] + 1), target, rate=rate, kT=kT)
+    shrink = float(np.mean(start.radius / grown.radius))  # (every radius grew by the same factor)
+    return State(
+        position=grown.position * shrink, velocity=grown.velocity, radius=start.radius, mass=start.mass, box=grown.box * shrink,
+        image=grown.image, periodic=grown.periodic,
+    )  # fmt: skip
 
 
 def build_simulation(cfg: Config, state: State | None = None) -> Simulation:

@@ -26,11 +26,11 @@ from .._core.jit import in_disk_cache
 from .._core.loop import GEO_ARG, loop_variant
 from .._core.queue import calendar_shape, new_queue, queue_build
 from .._core.snapshot import stream_all
-from .._core.wells import captured_pairs, load_captured
+from .._core.wells import capture_by_distance, captured_pairs, load_captured
 from ..physics import collide
 from ..physics.emdstar import EMDStar, emd_bundle
 from .memory import grid_shape
-from ..state import State, StateError
+from ..state import State, StateError, rescale_temperature
 
 #: ``INFO`` when a run must compile its loop variant first (the CLI shows it)
 log = logging.getLogger("edmd.compile")
@@ -86,7 +86,17 @@ class Engine:
     """Compiled-core arrays of one system (internal; see :class:`edmd.Simulation`)."""
 
     def __init__(
-        self, state: State, options: EngineOptions | None = None, rule=None, wall=None, gravity=None, thermostat=None, forcing=None, vibration=None, well=None
+        self,
+        state: State,
+        options: EngineOptions | None = None,
+        rule=None,
+        wall=None,
+        gravity=None,
+        thermostat=None,
+        forcing=None,
+        vibration=None,
+        well=None,
+        growth=None,
     ):
         self.options = options or EngineOptions()
         self.dim = state.dim
@@ -122,6 +132,9 @@ class Engine:
             if self.emd_rule is not None:
                 raise StateError("square wells and eMD* cannot be combined: eMD*'s soft contacts have no well")
             well.pack(self.fp, self.ip)
+        self.growth = growth
+        if growth is not None:
+            self._check_growth(state)
         self.etab = collide.viscoelastic_table()[0]
         self.ip[L.IP_WALLS] = sum(1 << k for k in range(self.dim) if not self.periodic[k])
         self.ip[L.IP_MAXSTALL] = 2 * self.n + 1000
@@ -135,6 +148,9 @@ class Engine:
         self.collision_log: list[np.ndarray] | None = None
         self.list_capacity = 0
         self._choose_neighbours(state)
+        if growth is not None:
+            self.growth = growth.resolved(state.time, 2.0 * float(state.radius.max()), float(self.fp[L.FP_SKIN]))
+            self.growth.pack(self.fp, self.ip)
         ip = self.ip
         #: the event loop compiled for this system's features only (see :func:`loop_variant`)
         self.loop = loop_variant(
@@ -146,6 +162,7 @@ class Engine:
             thermostat is not None,
             forcing is not None,
             well is not None,
+            growth is not None,
         )
         run_events, geo_type = self.loop.run_events, typeof(self.geo)
         if not any(sig.args[GEO_ARG] == geo_type for sig in run_events.nopython_signatures) and not in_disk_cache(run_events, (GEO_ARG, self.geo)):
@@ -158,10 +175,11 @@ class Engine:
         opt = self.options
         mode = opt.neighbours
         if mode == "auto":
-            mode = "list" if state.packing_fraction >= opt.auto_threshold or self.well is not None else "cells"
-        if mode == "cells" and self.well is not None:
-            raise StateError("square wells need neighbours='list' (or 'auto'): their pair events are predicted over neighbour lists")
-        reach = 1.0 + self.fp[L.FP_WELL_WIDTH]
+            mode = "list" if state.packing_fraction >= opt.auto_threshold or self._pair_state else "cells"
+        if mode == "cells" and self._pair_state:
+            what = "square wells" if self.well is not None else "growing particles"
+            raise StateError(f"{what} need neighbours='list' (or 'auto'): their pair events are predicted over neighbour lists")
+        reach = (1.0 + self.fp[L.FP_WELL_WIDTH]) * (1.0 + self.fp[L.FP_LIST_MARGIN])
         sigma_max = 2.0 * float(state.radius.max()) * reach  # the largest interaction range
         periodic_len = self.box[: self.dim][self.periodic]
         if mode == "cells":
@@ -192,6 +210,40 @@ class Engine:
             reach = sigma_max + skin
             ball = (4.0 / 3.0 * math.pi * reach**3) if self.dim == 3 else (math.pi * reach**2)
             self.list_capacity = max(self.list_capacity, int(1.6 * n_density * ball) + 8)
+
+    @property
+    def _pair_state(self) -> bool:
+        """Whether pair events need more than the hard-sphere predictor (square wells, growth): lists only."""
+        return self.well is not None or self.growth is not None
+
+    def _check_growth(self, state: State):
+        """Growth is built for compressing hard spheres: smooth constant-restitution collisions in a periodic box."""
+        if not np.all(state.periodic):
+            raise StateError("growing particles need a periodic box on every axis (walls do not grow with them)")
+        if not isinstance(self.rule, collide.Inelastic):
+            raise StateError(f"growing particles collide by a constant e_n (edmd.collide.Inelastic), not {type(self.rule).__name__}")
+        others = [name for name, x in (("eMD*", self.emd_rule), ("a square well", self.well), ("a thermostat", self.thermostat),
+                                       ("forcing", self.forcing), ("a vibrating wall", self.vibration), ("gravity", np.any(self.grav != 0) or None)) if x is not None]  # fmt: skip
+        if others:
+            raise StateError(f"growing particles cannot be combined with {', '.join(others)}")
+
+    def _start_segment(self):
+        """Growth at a load: the rate relative to the loaded radii and the lists' margin up to the next segment end."""
+        g = self.growth
+        if self.cnt[L.C_GROW_NEXT] == 0:  # the first load: the first segment end after now
+            self.cnt[L.C_GROW_NEXT] = int(math.floor((self.t_origin - g.start) / g.segment)) + 1
+        rate = g.rate / g.factor(self.t_origin)
+        self.fp[L.FP_GROW_LOCAL] = rate
+        self.fp[L.FP_LIST_MARGIN] = rate * (g.segment_end(int(self.cnt[L.C_GROW_NEXT])) - self.t_origin)
+
+    def _end_segment(self):
+        """Growth at a segment end (the engine is there): velocities rescaled to ``kT`` (booked as energy input), reload."""
+        state = self.snapshot()
+        before = state.kinetic_energy()
+        rescale_temperature(state, self.growth.kT)
+        self.acc[L.A_ENERGY_INPUT] += state.kinetic_energy() - before
+        self.cnt[L.C_GROW_NEXT] += 1
+        self._reload(state, float(self.acc[L.A_NOW]))
 
     def _geometry(self, origin: float) -> tuple:
         """The ``geo`` tuple for local times counted from ``origin`` (a vibrating wall's phase depends on it)."""
@@ -236,6 +288,9 @@ class Engine:
         if self.vibration is not None and new:  # (the engine's own states touch the wall to round-off of the re-based phase)
             self._vibration_clear(state)
         self.geo = self._geometry(self.t_origin)
+        if self.growth is not None:
+            self._start_segment()
+            self._choose_neighbours(state)  # (the radii have grown: cells of the list grid, skin, capacity)
         n = self.n
         pos = state.points
         order = self._spatial_order(pos)
@@ -261,6 +316,8 @@ class Engine:
             self._load_captured(state, order)
         self.drive = self._new_drive()
         self._rebuild()
+        if new and self.well is not None and not self._derive_captures:
+            self._check_captured(state)
 
     def _new_drive(self) -> Drive:
         """The bath's events and the timers after a load at ``t_origin`` (off: every time ``inf``)."""
@@ -307,6 +364,24 @@ class Engine:
                 f"inside its square well ({self.pairs.captured.shape[1]}): the captured pairs do not belong to this state"
             )
         load_captured(self.pairs, inv[pairs])
+
+    def _check_captured(self, state: State):
+        """A capture map from outside must be the state's geometry: the pairs inside the edge, up to
+        pairs within round-off (1e-9) of it."""
+        geometric = new_pairs(self.n, self.pairs.captured.shape[1])
+        reach = 1.0 + self.fp[L.FP_WELL_WIDTH]
+        capture_by_distance(self.part.rows, geometric, self.lists, self.geo, reach, 0.0)
+        found = {tuple(sorted(p)) for p in self.tag[captured_pairs(geometric)].tolist()}
+        for i, j in found ^ {tuple(p) for p in state.captured_pairs.tolist()}:
+            d = state.position[i] - state.position[j]
+            d -= np.where(state.periodic, state.box * np.round(d / state.box), 0.0)
+            r = float(np.linalg.norm(d)) / (state.radius[i] + state.radius[j])
+            if abs(r / reach - 1.0) > 1e-9:
+                inside = "inside the edge but not captured" if r < reach else "captured but beyond the edge"
+                raise StateError(
+                    f"particles {i} and {j} are {inside} ({r:.6g} contact distances, the edge at {reach:g}): the state's "
+                    "captured_pairs belong to another state or well width (set captured_pairs=None to capture by distance)"
+                )
 
     @property
     def potential_energy(self) -> float:
@@ -385,10 +460,17 @@ class Engine:
                 self.resync()
             chunk = int(min(budget, interval - (int(self.cnt[L.C_EVENTS]) - self.events_at_sync)))
             before = int(self.cnt[L.C_EVENTS])
+            stop = t_stop
+            if self.growth is not None:  # stop at the segment end (processed once the clock is to go past it)
+                stop = min(t_stop, self.growth.segment_end(int(self.cnt[L.C_GROW_NEXT])))
             status = self.loop.run_events(
                 self.part, self.ev, self.q, self.grid, self.lists, self.geo, self.fp, self.ip,  # (a resync re-bases the wall's phase)
-                self.acc, self.cnt, self.clog, self.cbuf, self.etab, self.emd, self.drive, self.pairs, t_stop - self.t_origin, chunk,
+                self.acc, self.cnt, self.clog, self.cbuf, self.etab, self.emd, self.drive, self.pairs, stop - self.t_origin, chunk,
             )  # fmt: skip
+            if status == L.ST_TIME and stop < t_stop:
+                self.acc[L.A_NOW] = stop - self.t_origin
+                self._end_segment()
+                continue
             budget -= int(self.cnt[L.C_EVENTS]) - before
             if status == L.ST_LOG_FULL:
                 self._flush_log()
@@ -471,7 +553,7 @@ class Engine:
         return State(
             position=pos[inv, :d],
             velocity=vel[inv, :d],
-            radius=P[inv, L.R],
+            radius=P[inv, L.R] * (1.0 + self.fp[L.FP_GROW_LOCAL] * (t - self.t_origin)),
             mass=mass[inv],
             box=self.box_user,
             time=t,

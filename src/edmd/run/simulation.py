@@ -20,6 +20,7 @@ from .observer import Observer, Totals
 from ..state import State
 from ..physics.thermostats import Andersen, WhiteNoise, driver_from_dict
 from ..physics.vibration import VibratingWall
+from ..physics.growth import Growth
 from ..physics.wells import SquareWell
 
 
@@ -36,6 +37,9 @@ class Simulation:
         thermostat: a heat bath acting through events (:class:`edmd.Andersen`, or its dict) or ``None``.
         forcing: random kicks of every particle at fixed intervals (:class:`edmd.WhiteNoise`, or its dict) or ``None``.
         vibration: a wall that moves along its normal (:class:`edmd.VibratingWall`, or its dict) or ``None``.
+        well: square-well attraction between the cores (:class:`edmd.SquareWell`, or its dict) or ``None``.
+        growth: radii growing in time, Lubachevsky–Stillinger compression (:class:`edmd.Growth`, or
+            its dict; see :func:`edmd.compress`) or ``None``.
         engine: :class:`~edmd.run.engine.EngineOptions` (or a dict of them).
 
     Example:
@@ -58,6 +62,7 @@ class Simulation:
         forcing: WhiteNoise | dict | None = None,
         vibration: VibratingWall | dict | None = None,
         well: SquareWell | dict | None = None,
+        growth: Growth | dict | None = None,
         engine: EngineOptions | dict | None = None,
     ):
         if e_n is not None:
@@ -74,7 +79,8 @@ class Simulation:
         forcing = _driver(forcing, WhiteNoise, "forcing")
         vibration = _driver(vibration, VibratingWall, "vibration")
         well = _driver(well, SquareWell, "well")
-        self._engine = self._build_engine(state, collision, walls, gravity, (thermostat, forcing, vibration, well), engine)
+        growth = _driver(growth, Growth, "growth")
+        self._engine = self._build_engine(state, collision, walls, gravity, (thermostat, forcing, vibration, well, growth), engine)
         #: uniform acceleration (``d`` components)
         self.gravity = self._engine.grav[: state.dim].copy()
         self._time = float(state.time)
@@ -84,10 +90,11 @@ class Simulation:
     def _build_engine(self, state, collision, walls, gravity, drivers, options):
         """The engine of these physics, compiled; sets :attr:`params` (subclasses with another
         engine, e.g. :class:`~edmd.run.dem.DEMSimulation`, override this and nothing else of the set-up)."""
-        thermostat, forcing, vibration, well = drivers
+        thermostat, forcing, vibration, well, growth = drivers
         engine = Engine(
-            state, options, rule=collision, wall=walls, gravity=gravity, thermostat=thermostat, forcing=forcing, vibration=vibration, well=well
-        )
+            state, options, rule=collision, wall=walls, gravity=gravity, thermostat=thermostat, forcing=forcing, vibration=vibration, well=well,
+            growth=growth,
+        )  # fmt: skip
         engine.compile()  # once per machine (cached on disk); kept out of wall_seconds
         _warn_viscoelastic_validity(state, engine.rule, engine.wall, engine.grav[: state.dim])
         #: the constructor's physics arguments (saved in checkpoints; new arguments belong here)
@@ -99,6 +106,7 @@ class Simulation:
             "forcing": None if forcing is None else forcing.to_dict(),
             "vibration": None if vibration is None else vibration.to_dict(),
             "well": None if well is None else well.to_dict(),
+            "growth": None if engine.growth is None else engine.growth.to_dict(),  # (start and segment resolved)
             "engine": dataclasses.asdict(engine.options),
         }
         return engine
@@ -186,23 +194,23 @@ class Simulation:
 
     @property
     def has_energy_input(self) -> bool:
-        """Whether something puts energy in (updaters, a thermostat, forcing, a vibrating wall):
-        ``Totals.energy_input`` counts it."""
+        """Whether something puts energy in (updaters, a thermostat, forcing, a vibrating wall,
+        growing particles): ``Totals.energy_input`` counts it."""
         e = self._engine
-        return self.has_updaters or any(d is not None for d in (e.thermostat, e.forcing, e.vibration))
+        return self.has_updaters or any(d is not None for d in (e.thermostat, e.forcing, e.vibration, e.growth))
 
     def apply_update(self, old: State, new: State):
         """Continue from ``new``, the system at ``old.time`` as an updater changed it.
 
-        The change of mechanical energy (kinetic, rotational and gravitational) is booked as
+        The change of mechanical energy (kinetic, rotational, gravitational and square wells') is booked as
         ``energy_input``, so that kinetic + rotational + potential + dissipated - input stays
         constant. The neighbour structures and the calendar are rebuilt (as at a resync).
         """
         if new.n != old.n or new.dim != old.dim or new.time != old.time:
             raise ValueError("an updater must return the same system at the same time")
-        before = old.kinetic_energy() + old.rotational_energy() + old.potential_energy(self.gravity)
-        after = new.kinetic_energy() + new.rotational_energy() + new.potential_energy(self.gravity)
+        before = old.kinetic_energy() + old.rotational_energy() + old.potential_energy(self.gravity) + self.potential_energy
         self._engine.replace(new)
+        after = new.kinetic_energy() + new.rotational_energy() + new.potential_energy(self.gravity) + self.potential_energy
         self._engine.acc[L.A_ENERGY_INPUT] += after - before
 
     @classmethod

@@ -29,7 +29,7 @@ import numpy as np
 
 from .observer import Observer, Totals
 from .simulation import Simulation
-from ..state import State
+from ..state import State, rescale_temperature
 
 
 class Updater(Observer):
@@ -98,12 +98,4 @@ class VelocityRescale(Updater):
         self.kT = float(kT)
 
     def update(self, state: State, rng: np.random.Generator) -> State:
-        temperature = state.temperature()
-        if not temperature > 0:
-            raise ValueError(f"VelocityRescale at t = {state.time}: the temperature is {temperature}, nothing to rescale")
-        scale = np.sqrt(self.kT / temperature)
-        u = state.momentum() / state.mass.sum()
-        state.velocity = u + scale * (state.velocity + state.pending_velocity - u) - scale * state.pending_velocity
-        state.pending_velocity = scale * state.pending_velocity
-        return state
-
+        return rescale_temperature(state, self.kT)
