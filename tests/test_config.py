@@ -147,7 +147,7 @@ def test_strings_and_floats_are_not_converted_silently(data, key):
         ({"system": {"radius": float("inf")}}, r"system\.radius: Input should be a finite number"),
         ({"collision": {"rule": "inelastic", "e_n": 0.9, "tc": float("inf")}}, r"collision\.tc: Input should be a finite number"),
         ({"system": {"seed": -1}}, r"system\.seed: .*greater than or equal to 0"),
-        ({"system": {"aspect": [1.0, 1.0, 2.0]}}, r"system: 'aspect' shapes the box of init = 'random' only"),
+        ({"system": {"aspect": [1.0, 1.0, 2.0]}}, r"system: 'aspect' shapes the box of init = 'random' or 'compress' only"),
         ({"system": {"n": 1}}, r"kT: a single particle .* set kT = 0"),
         ({"collision": {"rule": "emdstar", "contact": "dashpot", "k": 1e4, "e_n": 0.0}}, r"e_n = 0 has no dashpot"),
         ({"run": {"until_time": float("inf")}}, r"until_time = inf needs max_events or wall_time"),

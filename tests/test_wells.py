@@ -179,3 +179,31 @@ def test_square_wells_from_the_command_line(tmp_path):
     assert len(last.captured_pairs) == -table["potential_energy"][-1]
     with pytest.raises(edmd.ConfigError, match="width"):
         edmd.parse_config({"well": {"width": 0.9, "depth": 1.0}})
+
+
+def test_a_pair_grazing_the_edge_from_inside_keeps_the_clock_moving(dim):
+    """Captured, one ulp inside the edge and moving along it: its exits are grazing bounces, each a
+    little later (a predictor that answered 0 for them stalled the run, physics.md §2.5)."""
+    r = 1.5
+    for _ in range(5):
+        r = float(np.nextafter(r, 0.0))
+        pos = np.zeros((2, dim))
+        vel = np.zeros((2, dim))
+        pos[1, 1] = r
+        vel[1, 0] = 1.0
+        sim = Simulation(State(pos, vel, 0.5, 1.0, [20.0] * dim), well=WELL)
+        sim.run(until_time=2.0)
+        assert sim.time == 2.0 and sim.potential_energy == -1.0
+
+
+def test_a_capture_map_that_is_not_the_geometry_is_refused(dim):
+    far = pair_state(dim, 4.0, 0.3)
+    with pytest.raises(StateError, match="captured but beyond the edge"):
+        Simulation(State(far.position, far.velocity, 0.5, 1.0, far.box, captured_pairs=[[0, 1]]), well=WELL)
+    near = pair_state(dim, 1.2, 0.3)
+    with pytest.raises(StateError, match="inside the edge but not captured"):
+        Simulation(State(near.position, near.velocity, 0.5, 1.0, near.box, captured_pairs=np.zeros((0, 2), int)), well=WELL)
+    wide = Simulation(edmd.maxwell_boltzmann(edmd.random_packing(200, 0.3, dim=dim, seed=1), kT=0.6, seed=2), well=WELL)
+    wide.run(until_time=2.0)
+    with pytest.raises(StateError, match="another state or well width"):
+        Simulation(wide.state, well=SquareWell(width=1.2, depth=1.0))
