@@ -114,38 +114,20 @@ class Loop(NamedTuple):
     name: str
 
 
-def variant_name(
-    walls: bool,
-    emd_on: bool,
-    rough: bool,
-    normal: int,
-    debug: bool = False,
-    bath: bool = False,
-    noise: bool = False,
-    well: bool = False,
-    grow: bool = False,
-) -> str:
-    """Readable name of a feature set, e.g. ``"walls+rough+soft"`` (``"plain"``: none; ``soft``: the
-    central restitution of a contact law, e.g. viscoelastic spheres).
+def variant_name(key: tuple) -> str:
+    """Readable name of a feature set (the key of :func:`loop_variant`: walls, emd_on, rough,
+    normal, debug, bath, noise, well, grow), e.g. ``"walls+rough+soft"`` (``"plain"``: none;
+    ``soft``: the central restitution of a contact law, e.g. viscoelastic spheres).
 
     Example:
         >>> from edmd._core import layout as L
-        >>> variant_name(True, False, True, L.NORMAL_SOFT)
+        >>> variant_name((True, False, True, L.NORMAL_SOFT, False, False, False, False, False))
         'walls+rough+soft'
     """
+    walls, emd_on, rough, normal, debug, bath, noise, well, grow = key
     parts = [name for name, on in (("walls", walls), ("emdstar", emd_on), ("rough", rough)) if on]
-    if normal == NORMAL_SOFT and not emd_on:  # eMD*'s instantaneous fallbacks always use the soft law
-        parts.append("soft")
-    if bath:
-        parts.append("bath")
-    if noise:
-        parts.append("noise")
-    if well:
-        parts.append("well")
-    if grow:
-        parts.append("grow")
-    if debug:
-        parts.append("debug")
+    soft = normal == NORMAL_SOFT and not emd_on  # (eMD*'s instantaneous fallbacks always use the soft law)
+    parts += [name for name, on in (("soft", soft), ("bath", bath), ("noise", noise), ("well", well), ("grow", grow), ("debug", debug)) if on]
     return "+".join(parts) or "plain"
 
 
@@ -197,7 +179,7 @@ def loop_variant(
         aux = (key[0], key[1], key[5], key[7], key[8])  # the set-up depends on the single-particle events, wells and growth only
         if aux not in _SETUPS:
             _SETUPS[aux] = _make_setup(*aux)
-        _VARIANTS[key] = Loop(_make_loop(*key), _SETUPS[aux], variant_name(*key))
+        _VARIANTS[key] = Loop(_make_loop(*key), _SETUPS[aux], variant_name(key))
     return _VARIANTS[key]
 
 

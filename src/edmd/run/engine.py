@@ -85,19 +85,11 @@ class CollapseError(EngineError):
 class Engine:
     """Compiled-core arrays of one system (internal; see :class:`edmd.Simulation`)."""
 
-    def __init__(
-        self,
-        state: State,
-        options: EngineOptions | None = None,
-        rule=None,
-        wall=None,
-        gravity=None,
-        thermostat=None,
-        forcing=None,
-        vibration=None,
-        well=None,
-        growth=None,
-    ):
+    def __init__(self, state: State, options: EngineOptions | None = None, rule=None, wall=None, gravity=None, **drivers):
+        """``drivers``: ``thermostat``, ``forcing``, ``vibration``, ``well``, ``growth`` (``None``: off)."""
+        thermostat, forcing, vibration, well, growth = (drivers.pop(k, None) for k in ("thermostat", "forcing", "vibration", "well", "growth"))
+        if drivers:
+            raise TypeError(f"unknown engine arguments {sorted(drivers)}")
         self.options = options or EngineOptions()
         self.dim = state.dim
         self.n = state.n
