@@ -23,12 +23,12 @@ from .emdstar import emd_contact, execute_b, finish_contact, is_pending
 from .forcing import white_noise_kick
 from .jit import hot, jit
 from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTACT_GROWN, CONTACT_SOFT, CONTACT_WELL, NB_LIST, NORMAL_SOFT, TANGENT_SMOOTH
-from .nblist import build_lists, rebuild_list
+from .nblist import build_lists, list_reach, rebuild_list
 from .predict import advance, separation
 from .queue import queue_top, queue_update
 from .schedule import cross_cell, predict_aux, predict_pair, repredict, requeue, wrap_into_box
 from .growth import collide_growing
-from .wells import capture_by_distance, well_event
+from .wells import capture_by_distance, well_event, well_reach
 
 
 @hot
@@ -204,8 +204,8 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well, grow
         log_walls = log_cap > 0 and ip[L.IP_LOG_WALLS] != 0
         total_mass = fp[L.FP_MTOT]
         skin = fp[L.FP_SKIN]
-        reach = 1.0 + fp[L.FP_WELL_WIDTH]
-        list_reach = reach * (1.0 + fp[L.FP_LIST_MARGIN])
+        reach = well_reach(fp)
+        lists_reach = list_reach(fp)
         rate = fp[L.FP_GROW_LOCAL]
         wall_axes = ip[L.IP_WALLS]
         origin = drive.origin[0]
@@ -275,7 +275,7 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well, grow
                     advance(P, i, t, geo)
                     wrap_into_box(P, image, i, geo)
                     cnt[L.C_REBUILD] += 1
-                    if not rebuild_list(i, P, grid, lists, geo, skin, list_reach, cbuf):
+                    if not rebuild_list(i, P, grid, lists, geo, skin, lists_reach, cbuf):
                         return L.ST_LIST_FULL
                 elif kind >= L.AUX_CELL and kind < L.AUX_WALL:  # a cell crossing (the most frequent
                     # event of dilute gases): a path of its own
@@ -368,11 +368,11 @@ def _make_setup(walls, emd_on, bath_on, well, grow):
         mode = ip[L.IP_MODE]
         n = P.shape[0]
         skin = fp[L.FP_SKIN]
-        reach = 1.0 + fp[L.FP_WELL_WIDTH]
+        reach = well_reach(fp)
         rate = fp[L.FP_GROW_LOCAL]
         wall_axes = ip[L.IP_WALLS]
         if mode == NB_LIST:
-            if not build_lists(P, grid, lists, geo, skin, reach * (1.0 + fp[L.FP_LIST_MARGIN]), cbuf):
+            if not build_lists(P, grid, lists, geo, skin, list_reach(fp), cbuf):
                 return False
             if well and derive_captures:
                 capture_by_distance(P, pairs, lists, geo, reach, t)

@@ -17,8 +17,9 @@ import math
 from .jit import jit, leaf
 
 from .cells import cell_insert, cell_of_point, cell_remove, walk_around, walk_next
-from .layout import G_GX, G_GY, G_GZ, G_ON, R, X, Y, Z
+from .layout import FP_LIST_MARGIN, G_GX, G_GY, G_GZ, G_ON, R, X, Y, Z
 from .predict import INF, flight, gap_time, sphere_exit_time, wrap3
+from .wells import well_reach
 
 
 @leaf
@@ -60,6 +61,13 @@ def _link_neighbours(i, P, grid, lists, geo, skin, reach, cbuf, only_higher):
                 nbl_n[j] = nj + 1
         nc, s, j = walk_next(grid, cbuf, nc, s, j)
     return True
+
+
+@leaf
+def list_reach(fp):
+    """The lists' range in units of the contact distance: a square well's edge (:func:`.wells.well_reach`),
+    enlarged by ``fp[FP_LIST_MARGIN]`` for growing particles (1.0 for hard spheres)."""
+    return well_reach(fp) * (1.0 + fp[FP_LIST_MARGIN])
 
 
 @leaf

@@ -24,7 +24,7 @@ from .predict import INF, contact_time, flight, gap_time, relative_to
 from .queue import queue_update
 from .walls import is_moving, moving_wall_time
 from .growth import closer_grow
-from .wells import closer_well
+from .wells import closer_well, well_reach
 
 
 @hot
@@ -170,7 +170,7 @@ def repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb, 
 
     Compiled once and called (eMD* exception b, white-noise kicks); the loop inlines the same steps.
     """
-    predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, ip[L.IP_WELL] != 0, 1.0 + fp[L.FP_WELL_WIDTH], False, 0.0)
+    predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, ip[L.IP_WELL] != 0, well_reach(fp), False, 0.0)
     predict_aux(i, t, P, ev, grid, lists, geo, mode, ip[L.IP_WALLS] != 0, ip[L.IP_WALLS], ip[L.IP_EMD] != 0, fp[L.FP_SKIN], ptb, ip[L.IP_BATH] != 0, bath_t)
     requeue(q, ev, i)
 

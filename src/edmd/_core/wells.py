@@ -28,6 +28,12 @@ from .predict import INF, contact_time, relative_to, separation
 
 
 @leaf
+def well_reach(fp):
+    """:math:`\\lambda`: the well's edge in units of the contact distance (1 without a well)."""
+    return 1.0 + fp[L.FP_WELL_WIDTH]
+
+
+@leaf
 def is_captured(pairs, i, j):
     """Whether ``j`` is inside the well of ``i``."""
     for s in range(pairs.captured_n[i]):

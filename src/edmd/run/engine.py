@@ -26,7 +26,8 @@ from .._core.jit import in_disk_cache
 from .._core.loop import GEO_ARG, loop_variant
 from .._core.queue import calendar_shape, new_queue, queue_build
 from .._core.snapshot import stream_all
-from .._core.wells import capture_by_distance, captured_pairs, load_captured
+from .._core.nblist import list_reach
+from .._core.wells import capture_by_distance, captured_pairs, load_captured, well_reach
 from ..physics import collide
 from ..physics.emdstar import EMDStar, emd_bundle
 from .memory import grid_shape
@@ -171,7 +172,7 @@ class Engine:
         if mode == "cells" and self._pair_state:
             what = "square wells" if self.well is not None else "growing particles"
             raise StateError(f"{what} need neighbours='list' (or 'auto'): their pair events are predicted over neighbour lists")
-        reach = (1.0 + self.fp[L.FP_WELL_WIDTH]) * (1.0 + self.fp[L.FP_LIST_MARGIN])
+        reach = list_reach(self.fp)
         sigma_max = 2.0 * float(state.radius.max()) * reach  # the largest interaction range
         periodic_len = self.box[: self.dim][self.periodic]
         if mode == "cells":
@@ -361,7 +362,7 @@ class Engine:
         """A capture map from outside must be the state's geometry: the pairs inside the edge, up to
         pairs within round-off (1e-9) of it."""
         geometric = new_pairs(self.n, self.pairs.captured.shape[1])
-        reach = 1.0 + self.fp[L.FP_WELL_WIDTH]
+        reach = well_reach(self.fp)
         capture_by_distance(self.part.rows, geometric, self.lists, self.geo, reach, 0.0)
         found = {tuple(sorted(p)) for p in self.tag[captured_pairs(geometric)].tolist()}
         for i, j in found ^ {tuple(p) for p in state.captured_pairs.tolist()}:
