@@ -114,3 +114,11 @@ def test_bad_input_is_named(dim):
         Simulation(walled, growth=Growth(0.1))
     with pytest.raises(StateError, match="square well"):
         Simulation(state, growth=Growth(0.1), well=edmd.SquareWell(1.5, 1.0))
+
+
+def test_an_event_budget_counts_the_events_of_every_segment(dim):
+    """Segment ends (velocity rescalings) cut the loop's chunks; the events before each still count."""
+    start = edmd.maxwell_boltzmann(edmd.random_packing(200, 0.1, dim=dim, seed=7), kT=1.0, seed=8)
+    sim = Simulation(start, growth=Growth(rate=0.02, segment=0.05))
+    sim.run(max_events=5000)
+    assert sim.events == 5000 and sim.time > 0.2  # (more than four segment ends on the way)

@@ -460,11 +460,11 @@ class Engine:
                 self.part, self.ev, self.q, self.grid, self.lists, self.geo, self.fp, self.ip,  # (a resync re-bases the wall's phase)
                 self.acc, self.cnt, self.clog, self.cbuf, self.etab, self.emd, self.drive, self.pairs, stop - self.t_origin, chunk,
             )  # fmt: skip
+            budget -= int(self.cnt[L.C_EVENTS]) - before
             if status == L.ST_TIME and stop < t_stop:
                 self.acc[L.A_NOW] = stop - self.t_origin
                 self._end_segment()
                 continue
-            budget -= int(self.cnt[L.C_EVENTS]) - before
             if status == L.ST_LOG_FULL:
                 self._flush_log()
             elif status == L.ST_LIST_FULL:
