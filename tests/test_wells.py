@@ -40,13 +40,13 @@ def test_a_head_on_pair_is_captured_reflected_and_released(dim):
     sim.run(until_time=0.5 * (t_capture + t_core))
     assert counts(sim) == (1, 0, 0, 0)
     assert sim.state.velocity[0, 0] == pytest.approx(0.5 * math.sqrt(5.0), rel=1e-14)
-    assert sim.potential_energy == -1.0 and sim.state.captured_pairs.tolist() == [[0, 1]]
+    assert sim.well_energy == -1.0 and sim.state.captured_pairs.tolist() == [[0, 1]]
     sim.run(until_time=t_release + 1.0)
     assert counts(sim) == (1, 1, 0, 1)
     assert sim.state.velocity[0, 0] == pytest.approx(-0.5, rel=1e-14)
     gap = sim.state.position[1, 0] - sim.state.position[0, 0]
     assert gap == pytest.approx(1.5 + 1.0, rel=1e-13)  # one time unit at relative speed 1 after the release
-    assert sim.potential_energy == 0.0 and sim.state.captured_pairs.shape == (0, 2)
+    assert sim.well_energy == 0.0 and sim.state.captured_pairs.shape == (0, 2)
 
 
 def test_a_pair_too_slow_to_escape_bounces_inside_its_well(dim):
@@ -81,16 +81,16 @@ def test_a_gas_conserves_energy_and_its_capture_map_is_its_geometry(dim, walls):
     state = edmd.random_packing(300, 0.2, dim=dim, periodic=periodic, seed=4, radius={"kind": "uniform", "min": 0.4, "max": 0.6})
     state = edmd.maxwell_boltzmann(state, kT=1.0, seed=5)
     sim = Simulation(state, well=SquareWell(width=1.4, depth=0.7), engine={"debug": True})
-    energy = sim.state.kinetic_energy() + sim.potential_energy
+    energy = sim.state.kinetic_energy() + sim.well_energy
     for k in range(1, 9):
         sim.run(until_time=0.5 * k)
         s = sim.state
-        assert s.kinetic_energy() + sim.potential_energy == pytest.approx(energy, rel=1e-11)
+        assert s.kinetic_energy() + sim.well_energy == pytest.approx(energy, rel=1e-11)
         inside, r = brute_force_captured(s, 1.4)
         recorded = {tuple(p) for p in s.captured_pairs.tolist()}
         for i, j in inside ^ recorded:
             assert abs(r[i, j] - 1.4) < 1e-9, (i, j, r[i, j])
-        assert len(recorded) == pytest.approx(-sim.potential_energy / 0.7, rel=1e-12)
+        assert len(recorded) == pytest.approx(-sim.well_energy / 0.7, rel=1e-12)
     c = counts(sim)
     assert c[0] > 500 and c[1] > 500 and c[2] > 50 and c[3] > 500
 
@@ -139,7 +139,7 @@ def test_restarts_are_bit_for_bit_and_files_keep_the_capture_map(tmp_path, dim):
     write_state(tmp_path / "final.gsd", a)
     last = read_state(tmp_path / "final.gsd")
     assert np.array_equal(last.captured_pairs, a.captured_pairs)
-    assert Simulation(last, well=WELL).potential_energy == sim.potential_energy
+    assert Simulation(last, well=WELL).well_energy == sim.well_energy
 
 
 def test_bad_input_is_named(dim):
@@ -195,7 +195,7 @@ def test_a_pair_grazing_the_edge_from_inside_keeps_the_clock_moving(dim):
         vel[1, 0] = 1.0
         sim = Simulation(State(pos, vel, 0.5, 1.0, [20.0] * dim), well=WELL)
         sim.run(until_time=0.01)
-        assert sim.time == 0.01 and sim.potential_energy == -1.0 and sim.engine.cnt[L.C_WELL_BOUNCE] > 100
+        assert sim.time == 0.01 and sim.well_energy == -1.0 and sim.engine.cnt[L.C_WELL_BOUNCE] > 100
 
 
 def test_a_capture_map_that_is_not_the_geometry_is_refused(dim):

@@ -96,7 +96,7 @@ class Thermo(Observer):
 
     def observe(self, sim: Simulation, state: State, totals: Totals):
         kinetic, rotational = state.kinetic_energy(), state.rotational_energy()
-        potential = state.potential_energy(sim.gravity) + sim.elastic_energy + sim.potential_energy  # + soft contacts (DEM), square wells
+        potential = state.potential_energy(sim.gravity) + sim.elastic_energy + sim.well_energy  # + soft contacts (DEM), square wells
         row = {
             "time": totals.time,
             "events": totals.events,

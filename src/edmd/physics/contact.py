@@ -348,7 +348,7 @@ class Hertz(ContactModel):
 
     def restitution(self, vn: float, mu: float, r_eff: float) -> float:
         r""":math:`e_n = \varepsilon(\delta)` at normal impact speed ``vn``, from the spline table the core
-        uses (:func:`edmd.physics.collide.viscoelastic_table`; :meth:`central` solves the contact instead).
+        uses (:func:`viscoelastic_table`; :meth:`central` solves the contact instead).
 
         Example:
             >>> h = Hertz(young=63e9, poisson=0.2, A=1e-7)

@@ -27,16 +27,17 @@ from .._core import layout as L
 class SquareWell:
     r"""A square well of relative width ``width`` (:math:`\lambda > 1`) and depth ``depth`` (:math:`\varepsilon > 0`).
 
-    The potential energy of a state is :math:`-\varepsilon` times its number of captured pairs.
+    The potential energy of a state is :math:`-\varepsilon` times its number of captured pairs
+    (:attr:`edmd.Simulation.well_energy`).
     Square-well runs use neighbour lists, whose range is the well's edge :math:`\lambda\sigma_{ij}`.
 
     Example:
         >>> import edmd
         >>> state = edmd.maxwell_boltzmann(edmd.lattice(108, 0.2), kT=1.0, seed=1)
         >>> sim = edmd.Simulation(state, well=edmd.SquareWell(width=1.5, depth=1.0))
-        >>> e0 = sim.state.kinetic_energy() + sim.potential_energy
+        >>> e0 = sim.state.kinetic_energy() + sim.well_energy
         >>> sim.run(until_time=2.0)
-        >>> abs(sim.state.kinetic_energy() + sim.potential_energy - e0) < 1e-9 * abs(e0)
+        >>> abs(sim.state.kinetic_energy() + sim.well_energy - e0) < 1e-9 * abs(e0)
         True
     """
 

@@ -92,7 +92,7 @@ class DEMEngine:
     vibration = None
     well = None
     growth = None
-    potential_energy = 0.0  # (no square wells: the contacts' energy is the elastic energy)
+    well_energy = 0.0  # (no square wells: the contacts' energy is the elastic energy)
 
     def __init__(self, state: State, contact: ContactModel, dt: float, skin: float, gravity=None):
         if not np.all(state.periodic):

@@ -377,7 +377,7 @@ class Engine:
                 )
 
     @property
-    def potential_energy(self) -> float:
+    def well_energy(self) -> float:
         """The square wells' potential energy, :math:`-\\varepsilon` per captured pair (0 without wells)."""
         if self.well is None:
             return 0.0

@@ -166,11 +166,11 @@ class Simulation:
         )
 
     @property
-    def potential_energy(self) -> float:
+    def well_energy(self) -> float:
         """Potential energy of the pair interactions: :math:`-\\varepsilon` per captured square-well
         pair (:class:`edmd.SquareWell`; 0 for hard particles). Gravity's is
         :meth:`edmd.State.potential_energy`."""
-        return self._engine.potential_energy
+        return self._engine.well_energy
 
     @property
     def elastic_energy(self) -> float:
@@ -208,9 +208,9 @@ class Simulation:
         """
         if new.n != old.n or new.dim != old.dim or new.time != old.time:
             raise ValueError("an updater must return the same system at the same time")
-        before = old.kinetic_energy() + old.rotational_energy() + old.potential_energy(self.gravity) + self.potential_energy
+        before = old.kinetic_energy() + old.rotational_energy() + old.potential_energy(self.gravity) + self.well_energy
         self._engine.replace(new)
-        after = new.kinetic_energy() + new.rotational_energy() + new.potential_energy(self.gravity) + self.potential_energy
+        after = new.kinetic_energy() + new.rotational_energy() + new.potential_energy(self.gravity) + self.well_energy
         self._engine.acc[L.A_ENERGY_INPUT] += after - before
 
     @classmethod
