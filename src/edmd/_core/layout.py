@@ -50,6 +50,7 @@ ST_IDLE = 4  # no particle has a future event
 ST_STALL = 5  # too many events at one instant (inelastic collapse / Zeno)
 ST_OVERLAP = 6  # debug mode found an overlap or a contact away from sigma
 ST_BAD_EVENT = 7  # an event of unknown kind (cnt[C_BAD_I] the particle, cnt[C_BAD_J] the kind)
+ST_GROWN = 8  # (the engine's, not the loop's) growing radii have stopped growing
 
 # Counters, accumulators and parameters are arrays indexed by the constants below. Each array
 # has a tuple of names in index order: checkpoints store the names with the values, so a
@@ -80,11 +81,13 @@ COUNTERS = (
     "well_releases",  # captured pairs leaving it
     "well_bounces",  # captured pairs reflected at the edge (too slow to escape)
     "grow_next",  # growing radii: index k of the next segment end t0 + k segment (carried across reloads)
+    "grow_events",  # growing radii: events at the start of the current segment (it ends early after Growth.events per particle)
+    "grow_done",  # growing radii: 1 once they have stopped growing (Growth.end or Growth.pressure reached)
 )
 (
     C_EVENTS, C_COLL, C_STALE, C_AUX, C_REBUILD, C_WALL, C_LOG, C_ZENO_RUN, C_BAD_I, C_BAD_J,
     C_TC_ELASTIC, C_EMD_A, C_EMD_EXC_A, C_EMD_EXC_B, C_EMD_FALLBACK, C_BATH, C_KICKS, C_KICK_NEXT,
-    C_WELL_IN, C_WELL_OUT, C_WELL_BOUNCE, C_GROW_NEXT,
+    C_WELL_IN, C_WELL_OUT, C_WELL_BOUNCE, C_GROW_NEXT, C_GROW_EVENTS, C_GROW_DONE,
 ) = range(len(COUNTERS))  # fmt: skip
 N_COUNTERS = len(COUNTERS)
 
@@ -104,12 +107,15 @@ ACCUMULATORS = (
     "emd_vt",
     *(f"wall_{axis}_{face}" for axis in "xyz" for face in ("lower", "upper")),  # normal momentum given to each wall
     "energy_input",  # mechanical energy put in by updaters (thermostats, forcing) since the start
+    "segment_virial",  # growing radii: the virial and the kinetic-energy integral at the start of the current segment
+    "segment_kinetic_integral",
 )
 (
     A_VIRIAL, A_DISSIPATED, A_KE, A_KE_INT, A_LAST_T, A_PX, A_PY, A_PZ, A_NOW, A_BAD, A_EMD_VN, A_EMD_VT,
 ) = range(12)  # fmt: skip
 A_WALL = 12  # A_WALL + 2 * axis + face: normal momentum given to each wall (face 0 lower, 1 upper)
 A_ENERGY_INPUT = ACCUMULATORS.index("energy_input")
+A_SEG_VIRIAL, A_SEG_KE_INT = ACCUMULATORS.index("segment_virial"), ACCUMULATORS.index("segment_kinetic_integral")
 N_ACC = len(ACCUMULATORS)
 
 #: integer parameters (``ip`` array)

@@ -16,6 +16,7 @@ Example:
 from ._common import compressibility_factor, contact_value, maxwell_speed_pdf
 from .collisions import CollisionStatistics, ImpactPhases, impact_angle_pdf, impact_speed_pdf
 from .dynamics import MSD, msd_window
+from .packing import ContactNetwork, contact_pairs, rattlers
 from .steady import Profile, SteadyState, blocking_errors
 from .structure import RDF, pair_histogram
 from .thermal import AlgebraicCooling, HaffLaw, Pressure, Temperature, VelocityDistribution, sonine_a2
@@ -25,6 +26,7 @@ __all__ = [
     "AlgebraicCooling",
     "RDF",
     "CollisionStatistics",
+    "ContactNetwork",
     "HaffLaw",
     "ImpactPhases",
     "Pressure",
@@ -35,6 +37,8 @@ __all__ = [
     "compressibility_factor",
     "blocking_errors",
     "contact_value",
+    "contact_pairs",
+    "rattlers",
     "impact_angle_pdf",
     "impact_speed_pdf",
     "maxwell_speed_pdf",

@@ -1,12 +1,70 @@
-r"""Compression to a packing fraction by growing the particles (Lubachevsky–Stillinger; docs/physics.md §1.7)."""
+r"""Compression by growing the particles (Lubachevsky–Stillinger; docs/physics.md §1.7): to a packing
+fraction, to a reduced pressure, or to jamming."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from collections.abc import Callable, Sequence
 
+import numpy as np
+
+from ..analysis.packing import ContactNetwork
 from ..physics.growth import Growth
 from ..state import State, StateError, rescale_temperature
 from .simulation import Simulation
+
+#: the reduced pressure at which :func:`compression` calls a packing jammed by default (Skoge et al. 2006)
+JAMMED = 1e12
+#: close packing: the densest packing fraction (fcc/hcp in 3D, hexagonal in 2D)
+CLOSE_PACKING = {3: math.pi / math.sqrt(18.0), 2: math.pi / math.sqrt(12.0)}
+
+
+@dataclasses.dataclass
+class Compression:
+    """The result of :func:`compression`.
+
+    Attributes:
+        state: the compressed state, at the time the target was reached, velocities at ``kT``.
+        history: one row per segment of the growth (between two rescalings of the velocities): its
+            end ``time``, ``packing_fraction``, the reduced ``pressure`` :math:`Z = PV/(NkT)` measured
+            over it (from the collisions' virial and the time-averaged kinetic energy), and the
+            ``collisions`` so far (a structured array with those fields).
+        reached: ``"packing_fraction"`` or ``"pressure"``: the target that stopped the growth.
+    """
+
+    state: State
+    history: np.ndarray
+    reached: str
+
+    @property
+    def packing_fraction(self) -> float:
+        """The final packing fraction (:math:`\\varphi_J` of a jammed packing)."""
+        return self.state.packing_fraction
+
+    @property
+    def pressure(self) -> float:
+        """The reduced pressure of the last segment."""
+        return float(self.history["pressure"][-1])
+
+    def contacts(self, gap: float = 1e-9) -> ContactNetwork:
+        """The contact network of the final state (:class:`edmd.analysis.ContactNetwork`)."""
+        return ContactNetwork(gap).compute(self.state)
+
+    def plot(self, ax=None):
+        r"""The reduced pressure against the packing fraction during the compression (log scale)."""
+        from ..analysis._common import axes
+
+        ax = axes(ax)
+        h = self.history
+        ax.semilogy(h["packing_fraction"], h["pressure"], ".-", ms=2, lw=0.8)
+        ax.set_xlabel(r"packing fraction $\varphi$")
+        ax.set_ylabel(r"reduced pressure $Z = PV/NkT$")
+        ax.set_title(f"compression: final phi = {self.packing_fraction:.6f}")
+        return ax
+
+
+HISTORY = np.dtype([("time", float), ("packing_fraction", float), ("pressure", float), ("collisions", np.int64)])
 
 
 def compression_time(state: State, packing_fraction: float, rate: float) -> float:
@@ -21,22 +79,111 @@ def compression_time(state: State, packing_fraction: float, rate: float) -> floa
     return ((packing_fraction / state.packing_fraction) ** (1.0 / state.dim) - 1.0) / rate
 
 
-def compress(state: State, packing_fraction: float, rate: float = 0.02, kT: float = 1.0, engine: dict | None = None) -> State:
-    r"""``state`` compressed to ``packing_fraction`` by growing every radius at the same relative rate.
+def _check_targets(state: State, packing_fraction, pressure):
+    if packing_fraction is None and pressure is None:
+        raise StateError("compress: give a target packing_fraction, a target pressure, or both")
+    if packing_fraction is not None:
+        if not (isinstance(packing_fraction, int | float) and math.isfinite(packing_fraction)) or packing_fraction <= state.packing_fraction:
+            raise StateError(f"compress: the target packing fraction {packing_fraction!r} must exceed the state's ({state.packing_fraction:.6g})")
+        limit = CLOSE_PACKING[state.dim]
+        if packing_fraction >= limit:
+            raise StateError(f"compress: a packing fraction of {packing_fraction:g} is beyond close packing ({limit:.4f} in {state.dim}D)")
+    if pressure is not None and not (isinstance(pressure, int | float) and math.isfinite(pressure) and pressure > 1.0):
+        raise StateError(f"compress: the target reduced pressure must be a number above 1 (the ideal gas), got {pressure!r}")
+
+
+#: the default slow-down of :func:`compression`: from reduced pressure 1e3 the rate is a tenth of the
+#: start's, from 1e6 a fortieth (mixed-rate protocol; docs/physics.md §1.7)
+SLOWDOWN = ((1e3, 0.1), (1e6, 0.025))
+
+
+def compression(
+    state: State,
+    packing_fraction: float | None = None,
+    pressure: float | None = None,
+    rate: float = 0.02,
+    kT: float = 1.0,
+    slowdown: Sequence[tuple[float, float]] = SLOWDOWN,
+    engine: dict | None = None,
+    progress: Callable[[float, float], None] | None = None,
+) -> Compression:
+    r"""Compress ``state`` by growing every radius at the same relative rate, until its packing
+    fraction reaches ``packing_fraction`` or its reduced pressure reaches ``pressure``, whichever
+    comes first; ``pressure=1e12`` (:data:`JAMMED`) compresses to jamming.
 
     Event-driven Lubachevsky–Stillinger growth (:class:`edmd.Growth`): elastic hard spheres or disks
-    in a periodic box, exact pair times with growing radii, velocities rescaled to ``kT`` at regular
-    times; size ratios are kept, so any radius distribution can be compressed. Slow rates (about
-    0.01-0.05 per unit time at :math:`kT = 1`, :math:`m = 1`) give equilibrium fluids; fast ones glasses.
-    The result is at the time the target is reached, its packing fraction exact to round-off
-    (:math:`\sim 10^{-15}`) and its temperature ``kT``.
+    in a periodic box, exact pair times with growing radii, velocities rescaled to ``kT`` at the end
+    of every segment; size ratios are kept, so any radius distribution can be compressed. Slow rates
+    (about 0.01-0.05 per unit time at :math:`kT = 1`, :math:`m = 1`) give equilibrium fluids; fast
+    ones glasses. Near jamming the growth must slow down for the packing to find mechanical
+    equilibrium (at a fixed rate the contact network freezes hypostatic): ``slowdown`` lists
+    ``(pressure, factor)`` stages, from which on the rate is ``factor * rate`` (as the mixed-rate
+    protocol of Skoge et al., PRE 74, 041127, 2006). A packing-fraction target is met exactly (to
+    round-off); a pressure target at the end of the first segment whose pressure reaches it.
 
     Args:
         state: a start without overlaps (e.g. :func:`edmd.random_packing` at a low packing fraction).
-        packing_fraction: the target, above the state's.
-        rate: :math:`g`: radii grow as :math:`R(t) = R(0)(1 + gt)`.
+        packing_fraction: the target packing fraction, above the state's and below close packing.
+        pressure: the target reduced pressure :math:`Z = PV/(NkT)` (``1e12``: jammed).
+        rate: :math:`g`: radii grow as :math:`R(t) = R(0)(1 + gt)` (until the first slow-down).
         kT: the temperature velocities are rescaled to (the start's velocities are rescaled first).
+        slowdown: ``(pressure, factor)`` stages of the rate, pressures increasing (``()``: none).
         engine: engine options (:class:`~edmd.run.engine.EngineOptions` as a dict), e.g. ``{"debug": True}``.
+        progress: called as ``progress(packing_fraction, pressure)`` after every few segments.
+
+    Example:
+        >>> import edmd
+        >>> start = edmd.maxwell_boltzmann(edmd.random_packing(200, 0.1, seed=1), kT=1.0, seed=2)
+        >>> jammed = compression(start, pressure=1e12, rate=0.05)
+        >>> net = jammed.contacts()
+        >>> 0.62 < jammed.packing_fraction < 0.66, jammed.reached, round(net.mean_contact_number)   # isostatic: 2d
+        (True, 'pressure', 6)
+    """
+    _check_targets(state, packing_fraction, pressure)
+    stages = _stages(rate, pressure, slowdown)
+    current, rows = rescale_temperature(state.copy(), kT), []
+    for stage_rate, stage_pressure in stages:
+        current, segments = _grow(current, Growth(rate=stage_rate, kT=kT, packing_fraction=packing_fraction, pressure=stage_pressure), engine, progress)
+        done = rows[-1][3] if rows else 0  # (each stage counts its collisions from 0)
+        rows += [(t, phi, z, done + c) for t, phi, z, c in segments]
+        if packing_fraction is not None and current.packing_fraction >= packing_fraction * (1.0 - 1e-12):
+            return Compression(rescale_temperature(current, kT), np.array(rows, dtype=HISTORY), "packing_fraction")
+    return Compression(rescale_temperature(current, kT), np.array(rows, dtype=HISTORY), "pressure")
+
+
+def _stages(rate: float, pressure: float | None, slowdown) -> list[tuple[float, float | None]]:
+    """``(rate, stop pressure)`` of each stage of :func:`compression`."""
+    bounds = [float(p) for p, _ in slowdown]
+    if any(b <= a for a, b in zip(bounds, bounds[1:], strict=False)) or any(not (math.isfinite(f) and f > 0) for _, f in slowdown):
+        raise StateError(f"compress: slowdown must be (pressure, factor) stages with increasing pressures and positive factors, got {slowdown!r}")
+    rates = [rate] + [rate * f for p, f in slowdown if pressure is None or p < pressure]
+    stops = bounds[: len(rates) - 1] + [pressure]
+    return list(zip(rates, stops, strict=True))
+
+
+def _grow(state: State, growth: Growth, engine, progress) -> tuple[State, list]:
+    """``state`` grown until ``growth`` stops; the segments on the way."""
+    sim = Simulation(state, growth=growth, engine=engine)
+    chunk = max(20 * state.n, 100_000)
+    while sim.engine.growing:
+        sim.run(max_events=chunk, until_grown=True)
+        if progress is not None and sim.engine.segments:
+            progress(*sim.engine.segments[-1][1:3])
+    return sim.state, sim.engine.segments
+
+
+def compress(
+    state: State,
+    packing_fraction: float | None = None,
+    pressure: float | None = None,
+    rate: float = 0.02,
+    kT: float = 1.0,
+    slowdown: Sequence[tuple[float, float]] = SLOWDOWN,
+    engine: dict | None = None,
+) -> State:
+    r"""``state`` compressed to ``packing_fraction`` (or to the reduced ``pressure``): the state of
+    :func:`compression` (see there), its packing fraction exact to round-off (:math:`\sim 10^{-15}`)
+    and its temperature ``kT``.
 
     Example:
         >>> import edmd
@@ -45,11 +192,4 @@ def compress(state: State, packing_fraction: float, rate: float = 0.02, kT: floa
         >>> round(dense.packing_fraction, 12), dense.n
         (0.45, 500)
     """
-    if not (isinstance(packing_fraction, int | float) and math.isfinite(packing_fraction)) or packing_fraction <= state.packing_fraction:
-        raise StateError(f"compress: the target packing fraction {packing_fraction!r} must exceed the state's ({state.packing_fraction:.6g})")
-    limit = 0.7405 if state.dim == 3 else 0.9069
-    if packing_fraction >= limit:
-        raise StateError(f"compress: a packing fraction of {packing_fraction:g} is beyond close packing ({limit} in {state.dim}D)")
-    sim = Simulation(rescale_temperature(state.copy(), kT), growth=Growth(rate=rate, kT=kT), engine=engine)
-    sim.run(until_time=state.time + compression_time(state, packing_fraction, rate))
-    return rescale_temperature(sim.state, kT)
+    return compression(state, packing_fraction, pressure, rate=rate, kT=kT, slowdown=slowdown, engine=engine).state

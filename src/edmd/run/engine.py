@@ -142,26 +142,34 @@ class Engine:
         self.list_capacity = 0
         self._choose_neighbours(state)
         if growth is not None:
-            self.growth = growth.resolved(state.time, 2.0 * float(state.radius.max()), float(self.fp[L.FP_SKIN]))
+            speed = math.sqrt(growth.kT / float(state.mass.mean()))
+            args = (state.packing_fraction, self.dim, 2.0 * float(state.radius.max()), speed, float(self.fp[L.FP_SKIN]))
+            self.growth = growth.resolved(state.time, *args)
             self.growth.pack(self.fp, self.ip)
+        #: growing radii, per segment: (time, packing fraction, reduced pressure, collisions) at its end
+        self.segments: list[tuple[float, float, float, int]] = []
+        self._select_loop(growing=growth is not None)
+        self.load(state)
+
+    def _select_loop(self, growing: bool):
+        """The event loop compiled for this system's features only (see :func:`loop_variant`)."""
         ip = self.ip
-        #: the event loop compiled for this system's features only (see :func:`loop_variant`)
+        self._loop_grows = growing
         self.loop = loop_variant(
             ip[L.IP_WALLS] != 0,
             self.emd_rule is not None,
             ip[L.IP_TANGENT] != L.TANGENT_SMOOTH,
             ip[L.IP_NORMAL],
             self.options.debug,
-            thermostat is not None,
-            forcing is not None,
-            well is not None,
-            growth is not None,
+            self.thermostat is not None,
+            self.forcing is not None,
+            self.well is not None,
+            growing,
         )
         run_events, geo_type = self.loop.run_events, typeof(self.geo)
         if not any(sig.args[GEO_ARG] == geo_type for sig in run_events.nopython_signatures) and not in_disk_cache(run_events, (GEO_ARG, self.geo)):
-            name = self.loop.name + ("+vibration" if vibration is not None else "")
+            name = self.loop.name + ("+vibration" if self.vibration is not None else "")
             log.info("compiling the event loop for %s runs (once; cached afterwards, see `edmd compile`)", name)
-        self.load(state)
 
     # ------------------------------------------------------------------ set-up
     def _choose_neighbours(self, state: State):
@@ -221,22 +229,55 @@ class Engine:
             raise StateError(f"growing particles cannot be combined with {', '.join(others)}")
 
     def _start_segment(self):
-        """Growth at a load: the rate relative to the loaded radii and the lists' margin up to the next segment end."""
-        g = self.growth
-        if self.cnt[L.C_GROW_NEXT] == 0:  # the first load: the first segment end after now
-            self.cnt[L.C_GROW_NEXT] = int(math.floor((self.t_origin - g.start) / g.segment)) + 1
-        rate = g.rate / g.factor(self.t_origin)
+        """Growth at a load: the rate relative to the loaded radii and the lists' margin up to the
+        segment's latest end (none once the radii have stopped growing)."""
+        g, cnt = self.growth, self.cnt
+        if cnt[L.C_GROW_NEXT] == 0:  # the first load: the first segment end after now
+            cnt[L.C_GROW_NEXT] = int(math.floor((self.t_origin - g.start) / g.segment)) + 1
+            cnt[L.C_GROW_EVENTS] = cnt[L.C_EVENTS]
+            self.acc[L.A_SEG_VIRIAL], self.acc[L.A_SEG_KE_INT] = self.acc[L.A_VIRIAL], self.acc[L.A_KE_INT]
+            cnt[L.C_GROW_DONE] = int(g.end is not None and g.end <= self.t_origin)
+        growing = not cnt[L.C_GROW_DONE]
+        if self._loop_grows != growing:
+            self._select_loop(growing)
+        rate = g.rate / g.factor(self.t_origin) if growing else 0.0
         self.fp[L.FP_GROW_LOCAL] = rate
-        self.fp[L.FP_LIST_MARGIN] = rate * (g.segment_end(int(self.cnt[L.C_GROW_NEXT])) - self.t_origin)
+        self.fp[L.FP_LIST_MARGIN] = rate * (self._segment_stop() - self.t_origin) if growing else 0.0
+
+    @property
+    def growing(self) -> bool:
+        """Whether the radii are growing now."""
+        return self.growth is not None and not self.cnt[L.C_GROW_DONE]
+
+    def _segment_stop(self) -> float:
+        """The latest end of the current segment: the next :math:`t_0 + k\\Delta`, or the growth's end."""
+        g = self.growth
+        grid = g.segment_end(int(self.cnt[L.C_GROW_NEXT]))
+        return grid if g.end is None else min(grid, g.end)
+
+    def _segment_events_left(self) -> int:
+        """Events before the current segment ends by its count (``Growth.events`` per particle)."""
+        return max(int(math.ceil(self.growth.events * self.n)) - int(self.cnt[L.C_EVENTS] - self.cnt[L.C_GROW_EVENTS]), 0)
 
     def _end_segment(self):
-        """Growth at a segment end (the engine is there): velocities rescaled to ``kT`` (booked as energy input), reload."""
+        """Growth at a segment end (the engine is there): record the segment's packing fraction and
+        reduced pressure, stop growing if a target is reached, rescale the velocities to ``kT``
+        (booked as energy input) and reload."""
+        g, cnt, acc = self.growth, self.cnt, self.acc
+        now = self.now
         state = self.snapshot()
+        heat = 2.0 * (self.kinetic_integral(now) - acc[L.A_SEG_KE_INT])  # d N kT over the segment
+        pressure = 1.0 + (acc[L.A_VIRIAL] - acc[L.A_SEG_VIRIAL]) / heat if heat > 0.0 else math.nan
+        self.segments.append((now, state.packing_fraction, pressure, int(cnt[L.C_COLL])))
         before = state.kinetic_energy()
-        rescale_temperature(state, self.growth.kT)
-        self.acc[L.A_ENERGY_INPUT] += state.kinetic_energy() - before
-        self.cnt[L.C_GROW_NEXT] += 1
-        self._reload(state, float(self.acc[L.A_NOW]))
+        rescale_temperature(state, g.kT)
+        acc[L.A_ENERGY_INPUT] += state.kinetic_energy() - before
+        if now >= g.segment_end(int(cnt[L.C_GROW_NEXT])):
+            cnt[L.C_GROW_NEXT] += 1
+        cnt[L.C_GROW_EVENTS] = cnt[L.C_EVENTS]
+        cnt[L.C_GROW_DONE] = int((g.end is not None and now >= g.end) or (g.pressure is not None and pressure >= g.pressure))
+        self._reload(state, float(acc[L.A_NOW]))
+        acc[L.A_SEG_VIRIAL], acc[L.A_SEG_KE_INT] = acc[L.A_VIRIAL], acc[L.A_KE_INT]
 
     def _geometry(self, origin: float) -> tuple:
         """The ``geo`` tuple for local times counted from ``origin`` (a vibrating wall's phase depends on it)."""
@@ -453,17 +494,21 @@ class Engine:
                 self.resync()
             chunk = int(min(budget, interval - (int(self.cnt[L.C_EVENTS]) - self.events_at_sync)))
             before = int(self.cnt[L.C_EVENTS])
-            stop = t_stop
-            if self.growth is not None:  # stop at the segment end (processed once the clock is to go past it)
-                stop = min(t_stop, self.growth.segment_end(int(self.cnt[L.C_GROW_NEXT])))
+            stop, growing = t_stop, self.growing
+            if growing:  # stop at the segment's latest end (processed once the clock is to go past it) or count
+                stop = min(t_stop, self._segment_stop())
+                chunk = min(chunk, self._segment_events_left())
             status = self.loop.run_events(
                 self.part, self.ev, self.q, self.grid, self.lists, self.geo, self.fp, self.ip,  # (a resync re-bases the wall's phase)
                 self.acc, self.cnt, self.clog, self.cbuf, self.etab, self.emd, self.drive, self.pairs, stop - self.t_origin, chunk,
             )  # fmt: skip
             budget -= int(self.cnt[L.C_EVENTS]) - before
-            if status == L.ST_TIME and stop < t_stop:
-                self.acc[L.A_NOW] = stop - self.t_origin
+            if growing and ((status == L.ST_TIME and stop < t_stop) or (status == L.ST_EVENTS and self._segment_events_left() == 0)):
+                if status == L.ST_TIME:
+                    self.acc[L.A_NOW] = stop - self.t_origin
                 self._end_segment()
+                if not self.growing:
+                    return L.ST_GROWN
                 continue
             if status == L.ST_LOG_FULL:
                 self._flush_log()

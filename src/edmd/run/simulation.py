@@ -248,6 +248,7 @@ class Simulation:
         max_events: int | None = None,
         wall_time: float | None = None,
         progress: bool = False,
+        until_grown: bool = False,
     ):
         """Advance the system.
 
@@ -260,9 +261,13 @@ class Simulation:
             max_events: event budget of this call.
             wall_time: budget in wall-clock seconds (checked between chunks of events).
             progress: show a progress bar (rich).
+            until_grown: also stop when growing particles stop growing (:class:`edmd.Growth` ``end`` or
+                ``pressure``; the run is then at the segment end that reached the target).
         """
-        if until_time is None and max_events is None and wall_time is None:
-            raise ValueError("run() needs until_time, max_events or wall_time")
+        if until_grown and not self._engine.growing:
+            raise ValueError("run(until_grown=True) needs particles that are growing (Simulation(growth=...))")
+        if until_time is None and max_events is None and wall_time is None and not until_grown:
+            raise ValueError("run() needs until_time, max_events, wall_time or until_grown")
         if until_time is not None and (not math.isfinite(until_time) or until_time < self._time):
             raise ValueError(f"until_time must be a finite time >= the current time {self._time}, got {until_time}")
         target = math.inf if until_time is None else float(until_time)
@@ -289,7 +294,7 @@ class Simulation:
                         break
                 else:
                     self._time = max(self._time, self._engine.now)
-                    if status == L.ST_IDLE:
+                    if status == L.ST_IDLE or (status == L.ST_GROWN and until_grown):
                         break
                 if bar:
                     bar.update(self)
