@@ -222,3 +222,39 @@ def test_a_vibrating_wall_run_says_when_it_compiles(monkeypatch, caplog):
     state = edmd.random_packing(20, 0.05, dim=2, seed=1, periodic=[True, False])
     edmd.Simulation(state, vibration=edmd.VibratingWall(0.1, 1.0, phase=-1.5707963267948966, axis="y"))
     assert seen == [16] and any("walls+vibration runs" in m for m in caplog.messages)
+
+
+def test_compress_writes_a_packing_directory(tmp_path, dim):
+    """`edmd compress` to the configured packing fraction (the packing runs with `edmd run --from`), then to jamming."""
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(SMALL.format(dim=dim).replace("n = 300", "n = 150"))
+    out = tmp_path / "packing"
+    r = runner.invoke(app, ["compress", str(cfg), "--out", str(out), "--no-progress"])
+    assert r.exit_code == 0, r.output
+    summary = json.loads((out / "summary.json").read_text())
+    packing = read_state(out / "packing.gsd")
+    assert summary["reached"] == "packing_fraction" and abs(packing.packing_fraction - 0.3) < 1e-12
+    assert np.all(packing.radius == 0.5) and packing.time == 0.0  # scaled back to the configured radii
+    rows = np.genfromtxt(out / "compression.csv", delimiter=",", names=True)
+    assert rows.dtype.names == ("time", "packing_fraction", "pressure", "collisions") and np.all(np.diff(rows["packing_fraction"]) > 0)
+    assert (out / "compression.png").exists() and not (out / "contacts.png").exists()
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "run"), "--from", str(out / "packing.gsd"), "--no-progress"])
+    assert r.exit_code == 0, r.output
+    r = runner.invoke(app, ["compress", str(cfg), "--out", str(out), "--jam", "--no-progress"])
+    assert r.exit_code == 2 and "--force" in r.output
+    r = runner.invoke(app, ["compress", str(cfg), "--out", str(out), "--jam", "--no-progress", "--force", "--rate", "0.05"])
+    assert r.exit_code == 0, r.output
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["reached"] == "pressure" and summary["pressure"] >= 1e12 and summary["rate"] == 0.05
+    assert abs(summary["mean_contact_number"] / (2 * dim) - 1) < 0.03 and (out / "contacts.png").exists()
+
+
+def test_compress_names_bad_targets(tmp_path):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(SMALL.format(dim=3))
+    for args, words in ((["--to", "0.8"], "close packing"), (["--jam", "--pressure", "10"], "not both"), (["--pressure", "0.5"], "above 1")):
+        r = runner.invoke(app, ["compress", str(cfg), "--out", str(tmp_path / "p"), "--no-progress", *args])
+        assert r.exit_code == 2 and words in r.output, (args, r.output)
+    cfg.write_text(SMALL.format(dim=3) + '[walls]\naxes = ["z"]\n')
+    r = runner.invoke(app, ["compress", str(cfg), "--out", str(tmp_path / "p"), "--no-progress"])
+    assert r.exit_code == 2 and "periodic box" in r.output

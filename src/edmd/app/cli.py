@@ -1,4 +1,4 @@
-"""Command line: ``edmd run``, ``edmd init``, ``edmd sweep``, ``edmd export``, ``edmd plot``, ``edmd movie``, ``edmd tables``, ``edmd compile``."""
+"""Command line: ``edmd run``, ``edmd compress``, ``edmd init``, ``edmd sweep``, ``edmd export``, ``edmd plot``, ``edmd movie``, ``edmd tables``, ``edmd compile``."""
 
 from __future__ import annotations
 
@@ -98,6 +98,61 @@ def run(
             v = summary[key]
             table.add_row(key, f"{v:.6g}" if isinstance(v, float) else str(v))
     console.print(table)
+
+
+@app.command()
+def compress(
+    config: Path = typer.Argument(..., help="TOML configuration: its [system] gives the particles (and the target packing fraction)."),
+    out: Path = typer.Option(Path("edmd-packing"), "--out", "-o", help="Directory for packing.gsd, compression.csv, summary.json and figures."),
+    to: float = typer.Option(None, "--to", help="Target packing fraction (default: system.packing_fraction, unless --pressure or --jam)."),
+    pressure: float = typer.Option(None, "--pressure", help="Target reduced pressure Z = PV/(NkT)."),
+    jam: bool = typer.Option(False, "--jam", help="Compress to jamming: --pressure 1e12, contacts and rattlers reported."),
+    rate: float = typer.Option(None, "--rate", help="Growth rate g, R(t) = R(0)(1 + g t) (default: system.compress_rate)."),
+    gap: float = typer.Option(1e-9, "--gap", help="Contacts: pairs whose relative gap r/sigma - 1 is below this."),
+    start_from: Path = typer.Option(None, "--from", help="Compress a frame of this GSD file instead of a random start."),
+    frame: int = typer.Option(-1, "--frame", help="Frame of --from (negative counts from the end)."),
+    force: bool = typer.Option(False, "--force", help="Replace a packing already in --out."),
+    progress: bool = typer.Option(True, "--progress/--no-progress", help="Show a progress bar on the packing fraction."),
+):
+    """Compress particles by Lubachevsky-Stillinger growth to a packing fraction, a pressure or jamming."""
+    from ..run.compress import JAMMED
+    from ..run.engine import EngineError
+    from .packings import compress_directory
+    from .runner import RunDirectoryError
+
+    if jam:
+        if pressure is not None:
+            _fail("give --jam or --pressure, not both (--jam is --pressure 1e12)")
+        pressure = JAMMED
+    try:
+        cfg = _load_job(config, start_from, frame)
+        with _compression_bar(to or (cfg.system.packing_fraction if pressure is None else None), pressure, progress) as bar:
+            summary = compress_directory(cfg, out, packing_fraction=to, pressure=pressure, rate=rate, gap=gap, force=force, progress=bar)
+    except (ConfigError, StateError, RunDirectoryError, ValueError, OSError, EngineError) as exc:
+        _fail(str(exc))
+    table = Table(title=f"edmd compress -> {out}", show_header=False)
+    for key, value in summary.items():
+        table.add_row(key, f"{value:.6g}" if isinstance(value, float) else str(value))
+    console.print(table)
+
+
+@contextlib.contextmanager
+def _compression_bar(packing_fraction: float | None, pressure: float | None, show: bool):
+    """A rich progress bar on the packing fraction (towards a pressure target: on log Z); yields its update callback."""
+    if not show:
+        yield None
+        return
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    with Progress(TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn(), console=err_console, transient=True) as bar:
+        total = packing_fraction if packing_fraction is not None else float(np.log10(pressure))
+        task = bar.add_task("compressing", total=total)
+
+        def update(phi: float, z: float):
+            done = phi if packing_fraction is not None else float(np.log10(max(z, 1.0)))
+            bar.update(task, completed=min(done, total), description=f"phi = {phi:.6f}  Z = {z:.4g}")
+
+        yield update
 
 
 @app.command()

@@ -20,7 +20,7 @@ from ..run.engine import EngineError, EngineOptions
 from ..run.memory import check_memory
 from ..initial import lattice, maxwell_boltzmann, random_packing
 from ..run.observer import Observer
-from ..run.compress import compress
+from ..run.compress import at_radii, compress
 from ..run.simulation import Simulation
 from ..state import State
 from ..files.thermo import Thermo, read_thermo
@@ -68,12 +68,7 @@ def compressed_start(common: dict, aspect, kT: float, rate: float) -> State:
     :func:`edmd.compress` and scaled back to the configured radii (same packing fraction, smaller box)."""
     target = common["packing_fraction"]
     start = random_packing(aspect=aspect, **{**common, "packing_fraction": min(0.1, 0.5 * target)})
-    grown = compress(maxwell_boltzmann(start, kT, seed=common["seed"] + 1), target, rate=rate, kT=kT)
-    shrink = float(np.mean(start.radius / grown.radius))  # (every radius grew by the same factor)
-    return State(
-        position=grown.position * shrink, velocity=grown.velocity, radius=start.radius, mass=start.mass, box=grown.box * shrink,
-        image=grown.image, periodic=grown.periodic,
-    )  # fmt: skip
+    return at_radii(compress(maxwell_boltzmann(start, kT, seed=common["seed"] + 1), target, rate=rate, kT=kT), start.radius)
 
 
 def build_simulation(cfg: Config, state: State | None = None) -> Simulation:

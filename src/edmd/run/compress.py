@@ -92,9 +92,9 @@ def _check_targets(state: State, packing_fraction, pressure):
         raise StateError(f"compress: the target reduced pressure must be a number above 1 (the ideal gas), got {pressure!r}")
 
 
-#: the default slow-down of :func:`compression`: from reduced pressure 1e3 the rate is a tenth of the
-#: start's, from 1e6 a fortieth (mixed-rate protocol; docs/physics.md §1.7)
-SLOWDOWN = ((1e3, 0.1), (1e6, 0.025))
+#: the default slow-down of :func:`compression`: ``(pressure, factor)``: from reduced pressure 100 the
+#: rate is a quarter of the start's, ..., from 1e5 an eightieth (mixed-rate protocol; docs/physics.md §1.7)
+SLOWDOWN = ((1e2, 0.25), (1e3, 0.1), (1e4, 0.05), (1e5, 0.0125))
 
 
 def compression(
@@ -193,3 +193,22 @@ def compress(
         (0.45, 500)
     """
     return compression(state, packing_fraction, pressure, rate=rate, kT=kT, slowdown=slowdown, engine=engine).state
+
+
+def at_radii(grown: State, radius: np.ndarray) -> State:
+    """``grown`` scaled back to particles of radii ``radius`` (every radius grew by the same factor):
+    the same packing fraction, positions and box shrunk by that factor, time 0.
+
+    Example:
+        >>> import edmd
+        >>> s = edmd.lattice(27, 0.3)
+        >>> big = edmd.State(position=2 * s.position, velocity=s.velocity, radius=2 * s.radius, mass=s.mass, box=2 * s.box)
+        >>> back = at_radii(big, s.radius)
+        >>> bool(np.allclose(back.position, s.position)), round(back.packing_fraction, 12)
+        (True, 0.3)
+    """
+    shrink = float(np.mean(np.asarray(radius) / grown.radius))
+    return State(
+        position=grown.position * shrink, velocity=grown.velocity, radius=np.array(radius, float), mass=grown.mass, box=grown.box * shrink,
+        image=grown.image, periodic=grown.periodic,
+    )  # fmt: skip

@@ -1,0 +1,119 @@
+"""``edmd compress``: the particles of a configuration compressed to a packing fraction, a reduced
+pressure or jamming (:func:`edmd.compression`), written as a packing directory."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+from ..files.atomic import write_atomic
+from ..files.trajectory import read_state, write_state
+from ..initial import maxwell_boltzmann, random_packing
+from ..analysis.packing import ContactNetwork
+from ..run.compress import HISTORY, Compression, at_radii, compression
+from ..state import State
+from .config import Config, ConfigError, dump_config
+from .runner import RunDirectoryError
+
+#: files ``edmd compress`` writes into its directory
+PACKING_FILES = ("config.toml", "packing.gsd", "compression.csv", "summary.json", "compression.png", "contacts.png")
+
+
+def dilute_start(cfg: Config, target: float | None) -> State:
+    """The particles of ``[system]`` at random in a periodic box, at a tenth of the packing fraction
+    (or half the ``target``, if lower), velocities at ``kT`` (or the state of ``system.from_file``)."""
+    s = cfg.system
+    if s.from_file is not None:
+        return read_state(s.from_file, s.from_frame)
+    if cfg.walls.axes:
+        raise ConfigError("edmd compress needs a periodic box (walls.axes empty): walls do not grow with the particles")
+    radius = s.radius if isinstance(s.radius, float) else s.radius.as_dict()
+    eta = 0.1 if target is None else min(0.1, 0.5 * target)
+    start = random_packing(s.n, eta, dim=s.dim, radius=radius, mass=s.mass, density=s.density, seed=s.seed, aspect=s.aspect)
+    return maxwell_boltzmann(start, s.kT, seed=s.seed + 1)
+
+
+def history_csv(history: np.ndarray) -> str:
+    """The compression history as CSV text (one row per segment, :data:`edmd.run.compress.HISTORY`)."""
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(HISTORY.names)
+    writer.writerows([repr(float(t)), repr(float(phi)), repr(float(z)), int(c)] for t, phi, z, c in history)
+    return buf.getvalue()
+
+
+def compress_directory(
+    cfg: Config,
+    out: str | Path,
+    packing_fraction: float | None = None,
+    pressure: float | None = None,
+    rate: float | None = None,
+    gap: float = 1e-9,
+    force: bool = False,
+    progress: Callable[[float, float], None] | None = None,
+) -> dict:
+    """Compress the particles of ``cfg`` and write ``out``: ``packing.gsd`` (the final state, scaled
+    back to the configured radii), ``compression.csv`` (packing fraction, reduced pressure and
+    collisions per segment), ``summary.json``, ``config.toml`` and the figures ``compression.png``
+    (pressure against packing fraction) and, with a pressure target, ``contacts.png`` (contact numbers).
+
+    Without a target, the packing fraction of ``[system]`` is the target. ``rate`` defaults to
+    ``system.compress_rate``. Returns the summary.
+    """
+    out = Path(out)
+    if packing_fraction is None and pressure is None:
+        packing_fraction = cfg.system.packing_fraction
+    _claim_packing(out, force)
+    start = dilute_start(cfg, packing_fraction)
+    rate = cfg.system.compress_rate if rate is None else rate
+    started = time.process_time()
+    run = compression(start, packing_fraction, pressure, rate=rate, kT=cfg.system.kT, engine=cfg.engine.model_dump(), progress=progress)
+    cpu = time.process_time() - started
+    packing = at_radii(run.state, start.radius)
+    out.mkdir(parents=True, exist_ok=True)
+    write_atomic(out / "config.toml", dump_config(cfg))
+    write_state(out / "packing.gsd", packing)
+    write_atomic(out / "compression.csv", history_csv(run.history))
+    net = None if pressure is None else run.contacts(gap)
+    summary = _summary(run, packing, rate, cpu, net)
+    write_atomic(out / "summary.json", json.dumps(summary, indent=2) + "\n")
+    run.plot().figure.savefig(out / "compression.png", dpi=120)
+    if net is not None:
+        net.plot().figure.savefig(out / "contacts.png", dpi=120)
+    return summary
+
+
+def _claim_packing(out: Path, force: bool):
+    if out.exists() and not out.is_dir():
+        raise RunDirectoryError(f"{out} exists and is not a directory")
+    old = [out / name for name in PACKING_FILES if (out / name).exists()]
+    if old and not force:
+        raise RunDirectoryError(f"{out} already holds a packing ({', '.join(p.name for p in old)}): choose another --out or replace it with --force")
+    for path in old:
+        path.unlink()
+
+
+def _summary(run: Compression, packing: State, rate: float, cpu: float, net: ContactNetwork | None) -> dict:
+    summary = {
+        "n": packing.n,
+        "dim": packing.dim,
+        "packing_fraction": packing.packing_fraction,
+        "pressure": run.pressure,
+        "reached": run.reached,
+        "rate": rate,
+        "collisions": int(run.history["collisions"][-1]) if len(run.history) else 0,
+        "segments": len(run.history),
+        "cpu_seconds": cpu,
+    }
+    if net is not None:
+        summary |= {
+            "contact_gap": net.gap,
+            "mean_contact_number": net.mean_contact_number,
+            "isostatic_contact_number": net.isostatic,
+            "rattler_fraction": net.rattler_fraction,
+        }
+    return summary
