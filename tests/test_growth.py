@@ -227,3 +227,24 @@ def test_jamming_gives_an_isostatic_packing(dim):
     assert abs(net.mean_contact_number / (2 * dim) - 1.0) < 0.01, net.mean_contact_number
     assert net.rattler_fraction < 0.1
     assert (0.62 < jammed.packing_fraction < 0.66) if dim == 3 else (0.83 < jammed.packing_fraction < 0.85)
+
+
+def test_a_film_compressed_between_walls_reaches_its_separation_without_overlap(dim):
+    """The upper wall moves in at constant speed (debug checks at every collision); the other axes stay
+    fixed; the bath holds the temperature; every particle ends inside the new box."""
+    periodic = [True] * (dim - 1) + [False]
+    start = edmd.maxwell_boltzmann(edmd.random_packing(300, 0.2, dim=dim, seed=21, periodic=periodic), kT=1.0, seed=22)
+    axis = "xyz"[dim - 1]
+    target = 0.5 if dim == 3 else 0.6
+    separation = start.box[-1] * 0.2 / target
+    film = edmd.compress_film(start, separation, axis=axis, speed=0.05, kT=1.0, engine={"debug": True})
+    assert film.packing_fraction == pytest.approx(target, rel=1e-12)
+    assert np.array_equal(film.box[:-1], start.box[:-1]) and film.box[-1] == separation
+    film.check_no_overlap()
+    z, r = film.position[:, -1], film.radius
+    assert np.all(np.abs(z) + r <= 0.5 * separation * (1 + 1e-12))
+    assert film.temperature() == pytest.approx(1.0, rel=0.15)  # 300 particles: 1/sqrt(N d / 2) ~ 7 % spread, bath-held
+    with pytest.raises(StateError, match="closed by walls"):
+        edmd.compress_film(start, separation, axis="x")
+    with pytest.raises(StateError, match="between the largest diameter"):
+        edmd.compress_film(start, 0.5, axis=axis)

@@ -23,7 +23,7 @@ from .physics.thermostats import Andersen, WhiteNoise
 from .physics.vibration import VibratingWall
 from .physics.wells import SquareWell
 from .physics.growth import Growth
-from .run.compress import Compression, compress, compression
+from .run.compress import Compression, compress, compress_film, compression
 from .files.trajectory import Trajectory, read_state, write_state
 from .run.updaters import Updater, VelocityRescale
 
@@ -57,6 +57,7 @@ __all__ = [
     "SquareWell",
     "Growth",
     "compress",
+    "compress_film",
     "compression",
     "Compression",
     "WhiteNoise",

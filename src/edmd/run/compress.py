@@ -212,3 +212,58 @@ def at_radii(grown: State, radius: np.ndarray) -> State:
         position=grown.position * shrink, velocity=grown.velocity, radius=np.array(radius, float), mass=grown.mass, box=grown.box * shrink,
         image=grown.image, periodic=grown.periodic,
     )  # fmt: skip
+
+
+def compress_film(
+    state: State, separation: float, axis: str = "z", speed: float = 0.01, kT: float | None = None, bath_rate: float = 1.0, engine: dict | None = None
+) -> State:
+    r"""The film between the walls of ``axis`` squeezed to ``separation`` by its upper wall, moving
+    into the box at constant ``speed`` (the other axes stay fixed): the state when the wall gets
+    there, in a box whose length along ``axis`` is ``separation``.
+
+    The wall is an exactly moving wall (:class:`edmd.VibratingWall`, a sawtooth ramp
+    :math:`d(t) = vt`; docs/physics.md §1.6): collisions act in its frame and its work is energy
+    input. The particles keep their size, collide by the state's default (elastic) rule, and heat
+    up as the wall works on them unless ``kT`` holds them there by an Andersen bath of rate
+    ``bath_rate``. Slow walls (``speed`` well below the thermal speed) compress quasi-statically.
+
+    Args:
+        state: particles between walls on ``axis`` (``periodic`` False there), no overlaps.
+        separation: the final distance between the walls, above the largest diameter, below the box length.
+        axis: ``"x"``, ``"y"`` or ``"z"`` (2D: ``"x"`` or ``"y"``).
+        speed: the wall's speed :math:`v` (> 0).
+        kT: hold this temperature (Andersen bath), or ``None``: no bath.
+        bath_rate: the bath's rate per particle.
+        engine: engine options as a dict, e.g. ``{"debug": True}``.
+
+    Example:
+        >>> import edmd
+        >>> s = edmd.random_packing(200, 0.2, dim=2, seed=1, periodic=[True, False])
+        >>> film = compress_film(edmd.maxwell_boltzmann(s, 1.0, seed=2), separation=0.5 * s.box[1], axis="y", speed=0.05, kT=1.0)
+        >>> round(film.packing_fraction, 12), film.box[1] == 0.5 * s.box[1]
+        (0.4, True)
+    """
+    from ..physics.thermostats import Andersen
+    from ..physics.vibration import VibratingWall
+
+    k = "xyz".index(axis) if axis in ("x", "y", "z") else -1
+    if not 0 <= k < state.dim or state.periodic[k]:
+        raise StateError(f"compress_film: the axis {axis!r} must be one of the state's axes closed by walls (periodic False)")
+    length = float(state.box[k])
+    if not (isinstance(separation, int | float) and 2.0 * float(state.radius.max()) < separation < length):
+        raise StateError(f"compress_film: the separation {separation!r} must lie between the largest diameter {2 * float(state.radius.max()):g} and the box length {length:g}")
+    if not (isinstance(speed, int | float) and math.isfinite(speed) and speed > 0):
+        raise StateError(f"compress_film: the wall speed must be a positive number, got {speed!r}")
+    travel = length - separation
+    amplitude = 0.5 * travel * (1.0 + 1e-6)  # (the ramp ends after the wall arrives, not at it)
+    omega = math.pi * speed / amplitude  # a sawtooth rises by 2a in 2 pi / omega
+    wall = VibratingWall(amplitude=amplitude, omega=omega, phase=-math.pi - omega * state.time, axis=axis, side="upper", wave="sawtooth")
+    bath = None if kT is None else Andersen(kT=kT, rate=bath_rate)
+    sim = Simulation(state, vibration=wall, thermostat=bath, engine=engine)
+    sim.run(until_time=state.time + travel / speed)
+    film = sim.state
+    shift = np.zeros(state.dim)
+    shift[k] = 0.5 * travel
+    box = film.box.copy()
+    box[k] = separation
+    return dataclasses.replace(film, position=film.position + shift, box=box)
