@@ -258,3 +258,17 @@ def test_compress_names_bad_targets(tmp_path):
     cfg.write_text(SMALL.format(dim=3) + '[walls]\naxes = ["z"]\n')
     r = runner.invoke(app, ["compress", str(cfg), "--out", str(tmp_path / "p"), "--no-progress"])
     assert r.exit_code == 2 and "periodic box" in r.output
+
+
+def test_compress_squeezes_a_film_between_walls(tmp_path):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(SMALL.format(dim=2).replace("n = 300", "n = 200") + '[walls]\naxes = ["y"]\n')
+    out = tmp_path / "film"
+    r = runner.invoke(app, ["compress", str(cfg), "--out", str(out), "--film", "y", "--to", "0.5", "--no-progress"])
+    assert r.exit_code == 0, r.output
+    film = read_state(out / "packing.gsd")
+    summary = json.loads((out / "summary.json").read_text())
+    assert abs(film.packing_fraction - 0.5) < 1e-12 and summary["separation"] == film.box[1] and list(film.periodic) == [True, False]
+    assert abs(film.box[0] / film.box[1] - 1.0) < 1e-12  # the configured (square) box
+    r = runner.invoke(app, ["compress", str(cfg), "--out", str(tmp_path / "f2"), "--film", "x", "--no-progress"])
+    assert r.exit_code == 2 and "closed by walls" in r.output

@@ -109,12 +109,15 @@ def compress(
     jam: bool = typer.Option(False, "--jam", help="Compress to jamming: --pressure 1e12, contacts and rattlers reported."),
     rate: float = typer.Option(None, "--rate", help="Growth rate g, R(t) = R(0)(1 + g t) (default: system.compress_rate)."),
     gap: float = typer.Option(1e-9, "--gap", help="Contacts: pairs whose relative gap r/sigma - 1 is below this."),
+    film: str = typer.Option(None, "--film", help="Squeeze a film between the walls of this axis (in [walls] axes) to --to, by a wall moving in."),
+    speed: float = typer.Option(0.05, "--speed", help="--film: the wall's speed."),
     start_from: Path = typer.Option(None, "--from", help="Compress a frame of this GSD file instead of a random start."),
     frame: int = typer.Option(-1, "--frame", help="Frame of --from (negative counts from the end)."),
     force: bool = typer.Option(False, "--force", help="Replace a packing already in --out."),
     progress: bool = typer.Option(True, "--progress/--no-progress", help="Show a progress bar on the packing fraction."),
 ):
-    """Compress particles by Lubachevsky-Stillinger growth to a packing fraction, a pressure or jamming."""
+    """Compress particles by Lubachevsky-Stillinger growth to a packing fraction, a pressure or jamming
+    (or squeeze a film between walls, --film)."""
     from ..run.compress import JAMMED
     from ..run.engine import EngineError
     from .packings import compress_directory
@@ -127,7 +130,7 @@ def compress(
     try:
         cfg = _load_job(config, start_from, frame)
         with _compression_bar(to or (cfg.system.packing_fraction if pressure is None else None), pressure, progress) as bar:
-            summary = compress_directory(cfg, out, packing_fraction=to, pressure=pressure, rate=rate, gap=gap, force=force, progress=bar)
+            summary = compress_directory(cfg, out, packing_fraction=to, pressure=pressure, rate=rate, gap=gap, force=force, progress=bar, film=film, speed=speed)
     except (ConfigError, StateError, RunDirectoryError, ValueError, OSError, EngineError) as exc:
         _fail(str(exc))
     table = Table(title=f"edmd compress -> {out}", show_header=False)

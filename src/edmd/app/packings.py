@@ -10,11 +10,13 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
+
+from ..analysis.packing import ContactNetwork
 from ..files.atomic import write_atomic
 from ..files.trajectory import read_state, write_state
 from ..initial import maxwell_boltzmann, random_packing
-from ..analysis.packing import ContactNetwork
-from ..run.compress import HISTORY, Compression, at_radii, compression
+from ..run.compress import HISTORY, Compression, at_radii, compress_film, compression
 from ..state import State
 from .config import Config, ConfigError, dump_config
 from .runner import RunDirectoryError
@@ -23,17 +25,28 @@ from .runner import RunDirectoryError
 PACKING_FILES = ("config.toml", "packing.gsd", "compression.csv", "summary.json", "compression.png", "contacts.png")
 
 
-def dilute_start(cfg: Config, target: float | None) -> State:
+def dilute_start(cfg: Config, target: float | None, film: str | None = None) -> State:
     """The particles of ``[system]`` at random in a periodic box, at a tenth of the packing fraction
-    (or half the ``target``, if lower), velocities at ``kT`` (or the state of ``system.from_file``)."""
+    (or half the ``target``, if lower), velocities at ``kT`` (or the state of ``system.from_file``).
+
+    ``film``: an axis closed by ``[walls]``: the box has the walls and twice the configured length along
+    that axis, at half the ``target`` (squeezing it to half that length gives the configured box).
+    """
     s = cfg.system
     if s.from_file is not None:
         return read_state(s.from_file, s.from_frame)
-    if cfg.walls.axes:
-        raise ConfigError("edmd compress needs a periodic box (walls.axes empty): walls do not grow with the particles")
+    walled = cfg.walls.axes if film is not None else []
+    if cfg.walls.axes and film is None:
+        raise ConfigError("edmd compress needs a periodic box (walls.axes empty): walls do not grow with the particles; a film between walls is --film AXIS")
+    if film is not None and film not in cfg.walls.axes:
+        raise ConfigError(f"--film {film}: the axis must be closed by walls ([walls] axes = [{film!r}])")
     radius = s.radius if isinstance(s.radius, float) else s.radius.as_dict()
-    eta = 0.1 if target is None else min(0.1, 0.5 * target)
-    start = random_packing(s.n, eta, dim=s.dim, radius=radius, mass=s.mass, density=s.density, seed=s.seed, aspect=s.aspect)
+    eta = 0.5 * target if film is not None else 0.1 if target is None else min(0.1, 0.5 * target)
+    aspect = np.ones(s.dim) if s.aspect is None else np.array(s.aspect, float)
+    if film is not None:
+        aspect["xyz".index(film)] *= 2.0
+    periodic = [axis not in walled for axis in "xyz"[: s.dim]]
+    start = random_packing(s.n, eta, dim=s.dim, radius=radius, mass=s.mass, density=s.density, seed=s.seed, aspect=aspect, periodic=periodic)
     return maxwell_boltzmann(start, s.kT, seed=s.seed + 1)
 
 
@@ -55,6 +68,8 @@ def compress_directory(
     gap: float = 1e-9,
     force: bool = False,
     progress: Callable[[float, float], None] | None = None,
+    film: str | None = None,
+    speed: float = 0.05,
 ) -> dict:
     """Compress the particles of ``cfg`` and write ``out``: ``packing.gsd`` (the final state, scaled
     back to the configured radii), ``compression.csv`` (packing fraction, reduced pressure and
@@ -62,29 +77,44 @@ def compress_directory(
     (pressure against packing fraction) and, with a pressure target, ``contacts.png`` (contact numbers).
 
     Without a target, the packing fraction of ``[system]`` is the target. ``rate`` defaults to
-    ``system.compress_rate``. Returns the summary.
+    ``system.compress_rate``. ``film``: an axis closed by ``[walls]``: the particles keep their size
+    and the upper wall of that axis moves in at ``speed`` (:func:`edmd.compress_film`) from twice the
+    configured length to it (``packing.gsd``, ``summary.json`` and ``config.toml`` only). Returns the summary.
     """
     out = Path(out)
     if packing_fraction is None and pressure is None:
         packing_fraction = cfg.system.packing_fraction
+    if film is not None and pressure is not None:
+        raise ConfigError("a film is squeezed to a packing fraction (--to), not to a pressure")
     _claim_packing(out, force)
-    start = dilute_start(cfg, packing_fraction)
-    rate = cfg.system.compress_rate if rate is None else rate
+    start = dilute_start(cfg, packing_fraction, film)
     started = time.process_time()
+    if film is not None:
+        k = "xyz".index(film)
+        packing = compress_film(start, start.box[k] * start.packing_fraction / packing_fraction, film, speed, kT=cfg.system.kT, engine=cfg.engine.model_dump())
+        summary = {"n": packing.n, "dim": packing.dim, "packing_fraction": packing.packing_fraction, "film_axis": film, "separation": float(packing.box[k]),
+                   "wall_speed": speed, "cpu_seconds": time.process_time() - started}  # fmt: skip
+        _write_packing(out, cfg, packing, summary)
+        return summary
+    rate = cfg.system.compress_rate if rate is None else rate
     run = compression(start, packing_fraction, pressure, rate=rate, kT=cfg.system.kT, engine=cfg.engine.model_dump(), progress=progress)
     cpu = time.process_time() - started
     packing = at_radii(run.state, start.radius)
-    out.mkdir(parents=True, exist_ok=True)
-    write_atomic(out / "config.toml", dump_config(cfg))
-    write_state(out / "packing.gsd", packing)
-    write_atomic(out / "compression.csv", history_csv(run.history))
     net = None if pressure is None else run.contacts(gap)
     summary = _summary(run, packing, rate, cpu, net)
-    write_atomic(out / "summary.json", json.dumps(summary, indent=2) + "\n")
+    _write_packing(out, cfg, packing, summary)
+    write_atomic(out / "compression.csv", history_csv(run.history))
     run.plot().figure.savefig(out / "compression.png", dpi=120)
     if net is not None:
         net.plot().figure.savefig(out / "contacts.png", dpi=120)
     return summary
+
+
+def _write_packing(out: Path, cfg: Config, packing: State, summary: dict):
+    out.mkdir(parents=True, exist_ok=True)
+    write_atomic(out / "config.toml", dump_config(cfg))
+    write_state(out / "packing.gsd", packing)
+    write_atomic(out / "summary.json", json.dumps(summary, indent=2) + "\n")
 
 
 def _claim_packing(out: Path, force: bool):
