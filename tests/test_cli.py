@@ -236,7 +236,8 @@ def test_compress_writes_a_packing_directory(tmp_path, dim):
     assert summary["reached"] == "packing_fraction" and abs(packing.packing_fraction - 0.3) < 1e-12
     assert np.all(packing.radius == 0.5) and packing.time == 0.0  # scaled back to the configured radii
     rows = np.genfromtxt(out / "compression.csv", delimiter=",", names=True)
-    assert rows.dtype.names == ("time", "packing_fraction", "pressure", "collisions") and np.all(np.diff(rows["packing_fraction"]) > 0)
+    assert rows.dtype.names == ("time", "packing_fraction", "pressure", "collisions", "collision_rate") and np.all(np.diff(rows["packing_fraction"]) > 0)
+    assert np.all(rows["collision_rate"][1:] > 0) and np.isnan(rows["collision_rate"][0])
     assert (out / "compression.png").exists() and not (out / "contacts.png").exists()
     r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "run"), "--from", str(out / "packing.gsd"), "--no-progress"])
     assert r.exit_code == 0, r.output

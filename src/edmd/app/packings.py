@@ -50,12 +50,15 @@ def dilute_start(cfg: Config, target: float | None, film: str | None = None) -> 
     return maxwell_boltzmann(start, s.kT, seed=s.seed + 1)
 
 
-def history_csv(history: np.ndarray) -> str:
-    """The compression history as CSV text (one row per segment, :data:`edmd.run.compress.HISTORY`)."""
+def history_csv(history: np.ndarray, n: int) -> str:
+    """The compression history of ``n`` particles as CSV text: one row per segment
+    (:data:`edmd.run.compress.HISTORY`) and its ``collision_rate``, collisions per particle and unit time."""
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
-    writer.writerow(HISTORY.names)
-    writer.writerows([repr(float(t)), repr(float(phi)), repr(float(z)), int(c)] for t, phi, z, c in history)
+    writer.writerow([*HISTORY.names, "collision_rate"])
+    spans = np.diff(history["time"], prepend=np.nan)
+    rates = np.diff(history["collisions"], prepend=0) / (n * spans)
+    writer.writerows([repr(float(t)), repr(float(phi)), repr(float(z)), int(c), repr(float(rate))] for (t, phi, z, c), rate in zip(history, rates, strict=True))
     return buf.getvalue()
 
 
@@ -72,8 +75,8 @@ def compress_directory(
     speed: float = 0.05,
 ) -> dict:
     """Compress the particles of ``cfg`` and write ``out``: ``packing.gsd`` (the final state, scaled
-    back to the configured radii), ``compression.csv`` (packing fraction, reduced pressure and
-    collisions per segment), ``summary.json``, ``config.toml`` and the figures ``compression.png``
+    back to the configured radii), ``compression.csv`` (packing fraction, reduced pressure,
+    collisions and collision rate per segment; the first segment's rate is NaN), ``summary.json``, ``config.toml`` and the figures ``compression.png``
     (pressure against packing fraction) and, with a pressure target, ``contacts.png`` (contact numbers).
 
     Without a target, the packing fraction of ``[system]`` is the target. ``rate`` defaults to
@@ -103,7 +106,7 @@ def compress_directory(
     net = None if pressure is None else run.contacts(gap)
     summary = _summary(run, packing, rate, cpu, net)
     _write_packing(out, cfg, packing, summary)
-    write_atomic(out / "compression.csv", history_csv(run.history))
+    write_atomic(out / "compression.csv", history_csv(run.history, packing.n))
     run.plot().figure.savefig(out / "compression.png", dpi=120)
     if net is not None:
         net.plot().figure.savefig(out / "contacts.png", dpi=120)
