@@ -259,10 +259,11 @@ class Engine:
         """Events before the current segment ends by its count (``Growth.events`` per particle)."""
         return max(int(math.ceil(self.growth.events * self.n)) - int(self.cnt[L.C_EVENTS] - self.cnt[L.C_GROW_EVENTS]), 0)
 
-    def _end_segment(self):
+    def _end_segment(self, stop: float | None):
         """Growth at a segment end (the engine is there): record the segment's packing fraction and
         reduced pressure, stop growing if a target is reached, rescale the velocities to ``kT``
-        (booked as energy input) and reload."""
+        (booked as energy input) and reload. ``stop``: the segment's latest end if it ended there
+        (``None``: by its event count)."""
         g, cnt, acc = self.growth, self.cnt, self.acc
         now = self.now
         state = self.snapshot()
@@ -272,10 +273,10 @@ class Engine:
         before = state.kinetic_energy()
         rescale_temperature(state, g.kT)
         acc[L.A_ENERGY_INPUT] += state.kinetic_energy() - before
-        if now >= g.segment_end(int(cnt[L.C_GROW_NEXT])):
+        if stop is not None and stop == g.segment_end(int(cnt[L.C_GROW_NEXT])):
             cnt[L.C_GROW_NEXT] += 1
         cnt[L.C_GROW_EVENTS] = cnt[L.C_EVENTS]
-        cnt[L.C_GROW_DONE] = int((g.end is not None and now >= g.end) or (g.pressure is not None and pressure >= g.pressure))
+        cnt[L.C_GROW_DONE] = int((stop is not None and stop == g.end) or (g.pressure is not None and pressure >= g.pressure))
         self._reload(state, float(acc[L.A_NOW]))
         acc[L.A_SEG_VIRIAL], acc[L.A_SEG_KE_INT] = acc[L.A_VIRIAL], acc[L.A_KE_INT]
 
@@ -504,9 +505,10 @@ class Engine:
             )  # fmt: skip
             budget -= int(self.cnt[L.C_EVENTS]) - before
             if growing and ((status == L.ST_TIME and stop < t_stop) or (status == L.ST_EVENTS and self._segment_events_left() == 0)):
-                if status == L.ST_TIME:
+                timed = status == L.ST_TIME
+                if timed:
                     self.acc[L.A_NOW] = stop - self.t_origin
-                self._end_segment()
+                self._end_segment(stop if timed else None)
                 if not self.growing:
                     return L.ST_GROWN
                 continue
