@@ -108,9 +108,9 @@ def compress(
     pressure: float = typer.Option(None, "--pressure", help="Target reduced pressure Z = PV/(NkT)."),
     jam: bool = typer.Option(False, "--jam", help="Compress to jamming: --pressure 1e12, contacts and rattlers reported."),
     rate: float = typer.Option(None, "--rate", help="Growth rate g, R(t) = R(0)(1 + g t) (default: system.compress_rate)."),
-    gap: float = typer.Option(1e-9, "--gap", help="Contacts: pairs whose relative gap r/sigma - 1 is below this."),
+    gap: float = typer.Option(None, "--gap", help="With --pressure or --jam: contacts are pairs whose relative gap r/sigma - 1 is below this (default 1e-9)."),
     film: str = typer.Option(None, "--film", help="Squeeze a film between the walls of this axis (in [walls] axes) to --to, by a wall moving in."),
-    speed: float = typer.Option(0.05, "--speed", help="--film: the wall's speed."),
+    speed: float = typer.Option(None, "--speed", help="With --film: the wall's speed (default 0.05)."),
     start_from: Path = typer.Option(None, "--from", help="Compress a frame of this GSD file instead of a random start."),
     frame: int = typer.Option(-1, "--frame", help="Frame of --from (negative counts from the end)."),
     force: bool = typer.Option(False, "--force", help="Replace a packing already in --out."),
@@ -127,10 +127,20 @@ def compress(
         if pressure is not None:
             _fail("give --jam or --pressure, not both (--jam is --pressure 1e12)")
         pressure = JAMMED
+    conflicts = (
+        (gap is not None and pressure is None, "--gap goes with --pressure or --jam"),
+        (speed is not None and film is None, "--speed goes with --film"),
+        (rate is not None and film is not None, "--rate is the growth rate: a film keeps its particles' size (its wall moves at --speed)"),
+    )
+    for bad, message in conflicts:
+        if bad:
+            _fail(message)
     try:
         cfg = _load_job(config, start_from, frame)
         with _compression_bar(to or (cfg.system.packing_fraction if pressure is None else None), pressure, progress) as bar:
-            summary = compress_directory(cfg, out, packing_fraction=to, pressure=pressure, rate=rate, gap=gap, force=force, progress=bar, film=film, speed=speed)
+            summary = compress_directory(
+                cfg, out, packing_fraction=to, pressure=pressure, rate=rate, gap=gap or 1e-9, force=force, progress=bar, film=film, speed=speed or 0.05
+            )
     except (ConfigError, StateError, RunDirectoryError, ValueError, OSError, EngineError) as exc:
         _fail(str(exc))
     table = Table(title=f"edmd compress -> {out}", show_header=False)
