@@ -20,6 +20,7 @@ from ..state import StateError
 app = typer.Typer(add_completion=False, no_args_is_help=True, help="Event-driven molecular dynamics of hard and soft spheres and disks.")
 console = Console()
 err_console = Console(stderr=True)
+FRAME_OF_FROM = typer.Option(-1, "--frame", help="Frame of --from (negative counts from the end).")
 
 
 def _warn(message, category, filename, lineno, file=None, line=None):
@@ -57,7 +58,7 @@ def run(
     config: Path = typer.Argument(None, help="TOML configuration; without it the built-in showcase runs."),
     out: Path = typer.Option(Path("edmd-run"), "--out", "-o", help="Run directory for config, thermo, trajectory, checkpoint, plots."),
     start_from: Path = typer.Option(None, "--from", help="Start from a frame of this GSD file (the \\[system] settings are then ignored)."),
-    frame: int = typer.Option(-1, "--frame", help="Frame of --from (negative counts from the end)."),
+    frame: int = FRAME_OF_FROM,
     restart: Path = typer.Option(None, "--restart", help="Continue the run in this directory from its checkpoint."),
     until_time: float = typer.Option(None, "--until-time", help="With --restart: new end time (simulation time)."),
     force: bool = typer.Option(False, "--force", help="Replace a run already in --out (all its files are removed first)."),
@@ -112,7 +113,7 @@ def compress(
     film: str = typer.Option(None, "--film", help="Squeeze a film between the walls of this axis (in [walls] axes) to --to, by a wall moving in."),
     speed: float = typer.Option(None, "--speed", help="With --film: the wall's speed (default 0.05)."),
     start_from: Path = typer.Option(None, "--from", help="Compress a frame of this GSD file instead of a random start."),
-    frame: int = typer.Option(-1, "--frame", help="Frame of --from (negative counts from the end)."),
+    frame: int = FRAME_OF_FROM,
     force: bool = typer.Option(False, "--force", help="Replace a packing already in --out."),
     progress: bool = typer.Option(True, "--progress/--no-progress", help="Show a progress bar on the packing fraction."),
 ):

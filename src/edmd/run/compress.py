@@ -172,18 +172,11 @@ def _grow(state: State, growth: Growth, engine, progress) -> tuple[State, list]:
     return sim.state, sim.engine.segments
 
 
-def compress(
-    state: State,
-    packing_fraction: float | None = None,
-    pressure: float | None = None,
-    rate: float = 0.02,
-    kT: float = 1.0,
-    slowdown: Sequence[tuple[float, float]] = SLOWDOWN,
-    engine: dict | None = None,
-) -> State:
+def compress(state: State, packing_fraction: float | None = None, pressure: float | None = None, **options) -> State:
     r"""``state`` compressed to ``packing_fraction`` (or to the reduced ``pressure``): the state of
     :func:`compression` (see there), its packing fraction exact to round-off (:math:`\sim 10^{-15}`)
-    and its temperature ``kT``.
+    and its temperature ``kT``. ``options``: those of :func:`compression` (``rate``, ``kT``,
+    ``slowdown``, ``engine``, ``progress``).
 
     Example:
         >>> import edmd
@@ -192,7 +185,7 @@ def compress(
         >>> round(dense.packing_fraction, 12), dense.n
         (0.45, 500)
     """
-    return compression(state, packing_fraction, pressure, rate=rate, kT=kT, slowdown=slowdown, engine=engine).state
+    return compression(state, packing_fraction, pressure, **options).state
 
 
 def at_radii(grown: State, radius: np.ndarray) -> State:
