@@ -248,3 +248,31 @@ def test_a_film_compressed_between_walls_reaches_its_separation_without_overlap(
         edmd.compress_film(start, separation, axis="x")
     with pytest.raises(StateError, match="between the largest diameter"):
         edmd.compress_film(start, 0.5, axis=axis)
+
+
+def test_a_target_beyond_jamming_is_refused_once_jammed():
+    """Monodisperse spheres cannot reach 0.72 without crystallising: the compression stops at jamming
+    (it would otherwise grow forever at a vanishing rate) and says so."""
+    start = edmd.maxwell_boltzmann(edmd.random_packing(60, 0.1, seed=1), kT=1.0, seed=2)
+    with pytest.raises(StateError, match="jammed .* before the target 0.72"):
+        edmd.compression(start, 0.72, rate=0.2)
+    with pytest.raises(StateError, match="at most 1e\\+13"):
+        edmd.compression(start, pressure=1e15)
+
+
+def test_growth_cannot_start_in_the_future():
+    start = edmd.maxwell_boltzmann(edmd.random_packing(50, 0.1, seed=1), kT=1.0, seed=2)
+    with pytest.raises(ValueError, match="after the state's time"):
+        Simulation(start, growth=Growth(rate=0.05, start=1.1))
+
+
+def test_the_final_pressure_merges_a_segment_cut_short():
+    """A packing-fraction target cuts the last segment: with fewer than half the collisions of the one
+    before, the two are averaged by collisions."""
+    state = edmd.lattice(8, 0.1)
+    rows = [(1.0, 0.2, 1.0, 100), (2.0, 0.3, 2.0, 200), (2.1, 0.31, 5.0, 210)]
+    cut = edmd.Compression(state, np.array(rows, dtype=edmd.run.compress.HISTORY), "packing_fraction")
+    assert cut.pressure == pytest.approx((2.0 * 100 + 5.0 * 10) / 110, rel=1e-15)
+    full = edmd.Compression(state, np.array(rows[:2], dtype=edmd.run.compress.HISTORY), "packing_fraction")
+    assert full.pressure == 2.0
+    assert math.isnan(edmd.Compression(state, np.array([], dtype=edmd.run.compress.HISTORY), "pressure").pressure)

@@ -6,7 +6,8 @@ particles that carry it, so ``gap = 1e-9`` separates contacts from neighbours at
 *Rattlers* are particles that do not carry the packing: in :math:`d` dimensions a particle needs at least
 :math:`d + 1` contacts, so particles with fewer are removed, repeatedly, with their contacts. A jammed
 packing of frictionless spheres is isostatic: the non-rattlers have on average :math:`z = 2d`
-contacts (:math:`2d(1 - 1/N')` exactly, for :math:`N'` non-rattlers in a periodic box).
+contacts (:math:`2d(1 - 1/N') + 2/N'`, for :math:`N'` non-rattlers in a periodic box: :math:`d(N' - 1) + 1`
+contacts).
 """
 
 from __future__ import annotations

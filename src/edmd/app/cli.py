@@ -112,7 +112,7 @@ def compress(
     gap: float = typer.Option(None, "--gap", help="With --pressure or --jam: contacts are pairs whose relative gap r/sigma - 1 is below this (default 1e-9)."),
     film: str = typer.Option(None, "--film", help="Squeeze a film between the walls of this axis (in [walls] axes) to --to, by a wall moving in."),
     speed: float = typer.Option(None, "--speed", help="With --film: the wall's speed (default 0.05)."),
-    start_from: Path = typer.Option(None, "--from", help="Compress a frame of this GSD file instead of a random start."),
+    start_from: Path = typer.Option(None, "--from", help="Compress a frame of this GSD file instead of a random start (kT and the default target still come from \\[system])."),
     frame: int = FRAME_OF_FROM,
     force: bool = typer.Option(False, "--force", help="Replace a packing already in --out."),
     progress: bool = typer.Option(True, "--progress/--no-progress", help="Show a progress bar on the packing fraction."),
@@ -138,9 +138,10 @@ def compress(
             _fail(message)
     try:
         cfg = _load_job(config, start_from, frame)
-        with _compression_bar(to or (cfg.system.packing_fraction if pressure is None else None), pressure, progress) as bar:
+        with _compression_bar(to or (cfg.system.packing_fraction if pressure is None else None), pressure, progress and film is None) as bar:
             summary = compress_directory(
-                cfg, out, packing_fraction=to, pressure=pressure, rate=rate, gap=gap or 1e-9, force=force, progress=bar, film=film, speed=speed or 0.05
+                cfg, out, packing_fraction=to, pressure=pressure, rate=rate, gap=1e-9 if gap is None else gap, force=force, progress=bar, film=film,
+                speed=0.05 if speed is None else speed,
             )
     except (ConfigError, StateError, RunDirectoryError, ValueError, OSError, EngineError) as exc:
         _fail(str(exc))

@@ -89,35 +89,38 @@ def compress_directory(
         packing_fraction = cfg.system.packing_fraction
     if film is not None and pressure is not None:
         raise ConfigError("a film is squeezed to a packing fraction (--to), not to a pressure")
+    if not (gap > 0 and speed > 0):
+        raise ConfigError(f"the contact gap and the wall speed must be positive, got {gap!r} and {speed!r}")
     _claim_packing(out, force)
     start = dilute_start(cfg, packing_fraction, film)
     started = time.process_time()
     if film is not None:
         k = "xyz".index(film)
         packing = compress_film(start, start.box[k] * start.packing_fraction / packing_fraction, film, speed, kT=cfg.system.kT, engine=cfg.engine.model_dump())
+        _write_packing(out, cfg, packing)
         summary = {"n": packing.n, "dim": packing.dim, "packing_fraction": packing.packing_fraction, "film_axis": film, "separation": float(packing.box[k]),
                    "wall_speed": speed, "cpu_seconds": time.process_time() - started}  # fmt: skip
-        _write_packing(out, cfg, packing, summary)
-        return summary
-    rate = cfg.system.compress_rate if rate is None else rate
-    run = compression(start, packing_fraction, pressure, rate=rate, kT=cfg.system.kT, engine=cfg.engine.model_dump(), progress=progress)
-    cpu = time.process_time() - started
-    packing = at_radii(run.state, start.radius)
-    net = None if pressure is None else run.contacts(gap)
-    summary = _summary(run, packing, rate, cpu, net)
-    _write_packing(out, cfg, packing, summary)
-    write_atomic(out / "compression.csv", history_csv(run.history, packing.n))
-    run.plot().figure.savefig(out / "compression.png", dpi=120)
-    if net is not None:
-        net.plot().figure.savefig(out / "contacts.png", dpi=120)
+    else:
+        rate = cfg.system.compress_rate if rate is None else rate
+        run = compression(start, packing_fraction, pressure, rate=rate, kT=cfg.system.kT, engine=cfg.engine.model_dump(), progress=progress)
+        cpu = time.process_time() - started
+        packing = at_radii(run.state, start.radius)
+        _write_packing(out, cfg, packing)
+        write_atomic(out / "compression.csv", history_csv(run.history, packing.n))
+        net = None if pressure is None else ContactNetwork(gap).compute(packing)  # (relative gaps: the same at any scale)
+        summary = _summary(run, packing, rate, cpu, net)
+        run.plot().figure.savefig(out / "compression.png", dpi=120)
+        if net is not None:
+            net.plot().figure.savefig(out / "contacts.png", dpi=120)
+    write_atomic(out / "summary.json", json.dumps(summary, indent=2) + "\n")
     return summary
 
 
-def _write_packing(out: Path, cfg: Config, packing: State, summary: dict):
+def _write_packing(out: Path, cfg: Config, packing: State):
+    """The packing and its configuration, first (a later failure keeps them)."""
     out.mkdir(parents=True, exist_ok=True)
     write_atomic(out / "config.toml", dump_config(cfg))
     write_state(out / "packing.gsd", packing)
-    write_atomic(out / "summary.json", json.dumps(summary, indent=2) + "\n")
 
 
 def _claim_packing(out: Path, force: bool):

@@ -40,7 +40,8 @@ class Growth:
             :math:`0.05\,\bar v/(g\sigma_{\max})` with :math:`\bar v = \sqrt{kT/m}`, at least 1,
             which keeps the heating of a segment to about 5 %, see :meth:`resolved`).
         end: the time at which the radii stop growing (default: never).
-        packing_fraction: stop growing when the packing fraction reaches this (sets ``end``).
+        packing_fraction: stop growing when the packing fraction reaches this (sets ``end``; an
+            ``end`` given, as in a resolved growth saved in a checkpoint, takes precedence).
         pressure: stop growing at the first segment end whose reduced pressure
             :math:`Z = PV/(NkT)` reaches this (e.g. ``1e12``: jammed).
 
@@ -87,6 +88,8 @@ class Growth:
         segment's heating to about 5 % (measured: 4-5 % at every pressure from 10 to :math:`10^{12}`).
         """
         start = float(time) if self.start is None else float(self.start)
+        if start > time:
+            raise ValueError(f"Growth start {start!r} is after the state's time {time!r}: the radii grow from a time the run has reached")
         segment = 0.2 * skin / (sigma_max * self.rate) if self.segment is None else float(self.segment)
         events = max(1.0, 0.05 * speed / (self.rate * sigma_max)) if self.events is None else float(self.events)
         end = self.end

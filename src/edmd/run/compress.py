@@ -14,8 +14,11 @@ from ..physics.growth import Growth
 from ..state import State, StateError, rescale_temperature
 from .simulation import Simulation
 
-#: the reduced pressure at which :func:`compression` calls a packing jammed by default (Skoge et al. 2006)
+#: the reduced pressure at which :func:`compression` calls a packing jammed (Skoge et al. 2006); every
+#: compression stops there, whatever its target
 JAMMED = 1e12
+#: the highest pressure target: the gaps (~ sigma / Z) reach the round-off of the positions near 1e14
+MAX_PRESSURE = 1e13
 #: close packing: the densest packing fraction (fcc/hcp in 3D, hexagonal in 2D)
 CLOSE_PACKING = {3: math.pi / math.sqrt(18.0), 2: math.pi / math.sqrt(12.0)}
 
@@ -44,8 +47,16 @@ class Compression:
 
     @property
     def pressure(self) -> float:
-        """The reduced pressure of the last segment."""
-        return float(self.history["pressure"][-1])
+        """The reduced pressure at the end: of the last segment, merged with the one before when a
+        packing-fraction target cut it to fewer than half of that one's collisions (weighted by
+        collisions); NaN without segments."""
+        h = self.history
+        if len(h) == 0:
+            return math.nan
+        done = np.diff(h["collisions"], prepend=0)
+        if len(h) > 1 and done[-1] < 0.5 * done[-2]:
+            return float(np.average(h["pressure"][-2:], weights=done[-2:]))
+        return float(h["pressure"][-1])
 
     def contacts(self, gap: float = 1e-9) -> ContactNetwork:
         """The contact network of the final state (:class:`edmd.analysis.ContactNetwork`)."""
@@ -85,11 +96,14 @@ def _check_targets(state: State, packing_fraction, pressure):
     if packing_fraction is not None:
         if not (isinstance(packing_fraction, int | float) and math.isfinite(packing_fraction)) or packing_fraction <= state.packing_fraction:
             raise StateError(f"compress: the target packing fraction {packing_fraction!r} must exceed the state's ({state.packing_fraction:.6g})")
-        limit = CLOSE_PACKING[state.dim]
+        limit = CLOSE_PACKING[state.dim] if np.all(state.radius == state.radius[0]) else 1.0  # (mixtures pack denser)
         if packing_fraction >= limit:
             raise StateError(f"compress: a packing fraction of {packing_fraction:g} is beyond close packing ({limit:.4f} in {state.dim}D)")
-    if pressure is not None and not (isinstance(pressure, int | float) and math.isfinite(pressure) and pressure > 1.0):
-        raise StateError(f"compress: the target reduced pressure must be a number above 1 (the ideal gas), got {pressure!r}")
+    if pressure is not None and not (isinstance(pressure, int | float) and 1.0 < pressure <= MAX_PRESSURE):
+        raise StateError(
+            f"compress: the target reduced pressure must be a number above 1 (the ideal gas) and at most {MAX_PRESSURE:g} "
+            f"(the gaps then reach the round-off of the positions), got {pressure!r}"
+        )
 
 
 #: the default slow-down of :func:`compression`: ``(pressure, factor)``: from reduced pressure 100 the
@@ -140,7 +154,7 @@ def compression(
         (True, 'pressure', 6)
     """
     _check_targets(state, packing_fraction, pressure)
-    stages = _stages(rate, pressure, slowdown)
+    stages = _stages(rate, JAMMED if pressure is None else pressure, slowdown)  # (a packing fraction beyond jamming stops there)
     current, rows = rescale_temperature(state.copy(), kT), []
     for stage_rate, stage_pressure in stages:
         current, segments = _grow(current, Growth(rate=stage_rate, kT=kT, packing_fraction=packing_fraction, pressure=stage_pressure), engine, progress)
@@ -148,15 +162,20 @@ def compression(
         rows += [(t, phi, z, done + c) for t, phi, z, c in segments]
         if packing_fraction is not None and current.packing_fraction >= packing_fraction * (1.0 - 1e-12):
             return Compression(rescale_temperature(current, kT), np.array(rows, dtype=HISTORY), "packing_fraction")
+    if pressure is None:
+        raise StateError(
+            f"compress: jammed (reduced pressure {rows[-1][2]:.3g}) at packing fraction {current.packing_fraction:.6g}, before "
+            f"the target {packing_fraction:g}: a slower compression may pack denser (or crystallise), or choose a lower target"
+        )
     return Compression(rescale_temperature(current, kT), np.array(rows, dtype=HISTORY), "pressure")
 
 
-def _stages(rate: float, pressure: float | None, slowdown) -> list[tuple[float, float | None]]:
+def _stages(rate: float, pressure: float, slowdown) -> list[tuple[float, float]]:
     """``(rate, stop pressure)`` of each stage of :func:`compression`."""
     bounds = [float(p) for p, _ in slowdown]
     if any(b <= a for a, b in zip(bounds, bounds[1:], strict=False)) or any(not (math.isfinite(f) and f > 0) for _, f in slowdown):
         raise StateError(f"compress: slowdown must be (pressure, factor) stages with increasing pressures and positive factors, got {slowdown!r}")
-    rates = [rate] + [rate * f for p, f in slowdown if pressure is None or p < pressure]
+    rates = [rate] + [rate * f for p, f in slowdown if p < pressure]
     stops = bounds[: len(rates) - 1] + [pressure]
     return list(zip(rates, stops, strict=True))
 
