@@ -94,8 +94,9 @@ def test_compression_from_the_configuration():
     assert state.packing_fraction == pytest.approx(0.4, rel=1e-12) and np.all(state.radius == 0.5)
     assert state.time == 0.0 and state.temperature() == pytest.approx(1.0, rel=1e-12)
     state.check_no_overlap()
-    with pytest.raises(edmd.ConfigError, match="periodic box"):
-        edmd.parse_config(tomllib.loads('[system]\ninit = "compress"\n[walls]\naxes = ["z"]\n'))
+    walled = build_state(edmd.parse_config(tomllib.loads('[system]\nn = 200\npacking_fraction = 0.4\ninit = "compress"\ncompress_rate = 0.05\n[walls]\naxes = ["z"]\n')))
+    assert walled.packing_fraction == pytest.approx(0.4, rel=1e-12) and list(walled.periodic) == [True, True, False]
+    assert np.all(np.abs(walled.position[:, 2]) + walled.radius <= 0.5 * walled.box[2])
 
 
 def test_bad_input_is_named(dim):
@@ -110,9 +111,6 @@ def test_bad_input_is_named(dim):
         Simulation(state, growth=Growth(0.1), collision=edmd.collide.Rough(0.9, beta=0.0))
     with pytest.raises(StateError, match="neighbours='list'"):
         Simulation(state, growth=Growth(0.1), engine={"neighbours": "cells"})
-    walled = edmd.maxwell_boltzmann(edmd.random_packing(50, 0.1, dim=dim, seed=1, periodic=[False] + [True] * (dim - 1)), kT=1.0, seed=2)
-    with pytest.raises(StateError, match="periodic box"):
-        Simulation(walled, growth=Growth(0.1))
     with pytest.raises(StateError, match="square well"):
         Simulation(state, growth=Growth(0.1), well=edmd.SquareWell(1.5, 1.0))
 
@@ -276,3 +274,37 @@ def test_the_final_pressure_merges_a_segment_cut_short():
     full = edmd.Compression(state, np.array(rows[:2], dtype=edmd.run.compress.HISTORY), "packing_fraction")
     assert full.pressure == 2.0
     assert math.isnan(edmd.Compression(state, np.array([], dtype=edmd.run.compress.HISTORY), "pressure").pressure)
+
+
+def test_a_growing_sphere_meets_a_wall_as_if_the_wall_moved_in(dim):
+    """At rest, radius 0.5, its surface 0.5 from the lower wall, growing at g = 0.1: contact when
+    0.5 (1 + 0.1 t) = 1, t = 10; elastic, it leaves at twice the surface's speed, 2 R(0) g = 0.1, and
+    the wall takes that momentum."""
+    box = np.full(dim, 12.0)
+    pos = np.zeros((1, dim))
+    pos[0, -1] = -6.0 + 1.0
+    ball = edmd.State(position=pos, velocity=np.zeros((1, dim)), radius=np.array([0.5]), mass=np.array([1.0]), box=box,
+                      periodic=np.array([True] * (dim - 1) + [False]))  # fmt: skip
+    sim = Simulation(ball, growth=Growth(rate=0.1, segment=15.0, events=1e6))  # (no rescaling before t = 15)
+    sim.run(until_time=9.999)
+    assert sim.totals().wall_collisions == 0
+    sim.run(until_time=10.5)
+    after = sim.state
+    assert sim.totals().wall_collisions == 1
+    assert after.velocity[0, -1] == pytest.approx(0.1, rel=1e-12)
+    assert after.position[0, -1] == pytest.approx(-5.0 + 0.1 * 0.5, rel=1e-12)
+    assert sim.totals().wall_impulse[-1, 0] == pytest.approx(0.1, rel=1e-12)  # (normal momentum given to the lower wall)
+    assert sim.totals().energy_input == pytest.approx(0.5 * 0.1**2, rel=1e-12)  # the growth's work
+
+
+def test_compression_between_walls_without_overlap(dim):
+    """Polydisperse, walls on the last axis (debug checks at every collision): the target is reached
+    exactly, every particle stays inside the walls, the wall pressure is recorded."""
+    periodic = [True] * (dim - 1) + [False]
+    start = edmd.random_packing(300, 0.1, dim=dim, seed=23, periodic=periodic, radius={"kind": "uniform", "min": 0.4, "max": 0.6})
+    start = edmd.maxwell_boltzmann(start, kT=1.0, seed=24)
+    target = 0.5 if dim == 3 else 0.7
+    dense = compress(start, target, rate=0.05, engine={"debug": True})
+    assert dense.packing_fraction == pytest.approx(target, rel=1e-12)
+    dense.check_no_overlap()
+    assert np.all(np.abs(dense.position[:, -1]) + dense.radius <= 0.5 * dense.box[-1] * (1 + 1e-12))

@@ -189,13 +189,14 @@ def collide_pair(t, P, mass, omega, inertia, tlast, i, j, geo, fp, ip, etab, acc
 
 
 @hot
-def collide_wall(t, P, mass, omega, inertia, tlast, i, axis, face, geo, fp, ip, etab, acc):
+def collide_wall(t, P, mass, omega, inertia, tlast, i, axis, face, geo, fp, ip, etab, acc, grow_speed):
     """Bounce ``i`` (streamed to the contact time ``t``) off the wall ``face`` (0 lower, 1 upper) of ``axis``.
 
     The wall is a particle of infinite mass and moment of inertia (physics.md §1.3); its own
     normal/tangential laws and TC rule apply to the velocity relative to the wall, which moves
     along its normal with :func:`.walls.wall_velocity` :math:`u` (0 unless it is the vibrating
-    wall, §1.6). The normal momentum it takes is added to ``acc[A_WALL + 2 * axis + face]``
+    wall, §1.6) plus ``grow_speed``, the rate :math:`R_0\\gamma` at which a growing radius (§1.7)
+    closes the gap as if the wall moved in. The normal momentum it takes is added to ``acc[A_WALL + 2 * axis + face]``
     (wall pressure), the momentum change to ``acc[A_P*]``, the energy lost in the wall's frame
     to ``acc[A_DISSIPATED]`` and the work :math:`u J` the wall did to ``acc[A_ENERGY_INPUT]``.
     Returns the normal and tangential impact speeds relative to the wall (zeros: no impact).
@@ -208,7 +209,7 @@ def collide_wall(t, P, mass, omega, inertia, tlast, i, axis, face, geo, fp, ip, 
         ny = sign
     else:
         nz = sign
-    uw = wall_velocity(axis, face, t, geo)
+    uw = wall_velocity(axis, face, t, geo) + sign * grow_speed
     gx, gy, gz = P[i, L.VX], P[i, L.VY], P[i, L.VZ]
     gn = gx * nx + gy * ny + gz * nz - uw * sign
     if gn >= 0.0:

@@ -394,8 +394,6 @@ class Config(_Section):
             raise ValueError("walls.axes: a 2D system has no z axis")
         if self.walls.viscoelastic and self.collision.young is None:
             raise ValueError("walls.viscoelastic needs a viscoelastic material in [collision] (young, poisson, A)")
-        if self.system.init == "compress" and self.walls.axes:
-            raise ValueError("system.init = 'compress' needs a periodic box (walls.axes empty): walls do not grow with the particles")
         if self.vibration is not None and self.vibration.axis not in self.walls.axes:
             raise ValueError(f"vibration.axis = {self.vibration.axis!r} must be one of walls.axes (the vibrating wall is one of its walls)")
         return self

@@ -26,7 +26,7 @@ PACKING_FILES = ("config.toml", "packing.gsd", "compression.csv", "summary.json"
 
 
 def dilute_start(cfg: Config, target: float | None, film: str | None = None) -> State:
-    """The particles of ``[system]`` at random in a periodic box, at a tenth of the packing fraction
+    """The particles of ``[system]`` at random in its box (walls on ``[walls]`` axes), at a tenth of the packing fraction
     (or half the ``target``, if lower), velocities at ``kT`` (or the state of ``system.from_file``).
 
     ``film``: an axis closed by ``[walls]``: the box has the walls and twice the configured length along
@@ -35,9 +35,6 @@ def dilute_start(cfg: Config, target: float | None, film: str | None = None) -> 
     s = cfg.system
     if s.from_file is not None:
         return read_state(s.from_file, s.from_frame)
-    walled = cfg.walls.axes if film is not None else []
-    if cfg.walls.axes and film is None:
-        raise ConfigError("edmd compress needs a periodic box (walls.axes empty): walls do not grow with the particles; a film between walls is --film AXIS")
     if film is not None and film not in cfg.walls.axes:
         raise ConfigError(f"--film {film}: the axis must be closed by walls ([walls] axes = [{film!r}])")
     radius = s.radius if isinstance(s.radius, float) else s.radius.as_dict()
@@ -45,7 +42,7 @@ def dilute_start(cfg: Config, target: float | None, film: str | None = None) -> 
     aspect = np.ones(s.dim) if s.aspect is None else np.array(s.aspect, float)
     if film is not None:
         aspect["xyz".index(film)] *= 2.0
-    periodic = [axis not in walled for axis in "xyz"[: s.dim]]
+    periodic = [axis not in cfg.walls.axes for axis in "xyz"[: s.dim]]
     start = random_packing(s.n, eta, dim=s.dim, radius=radius, mass=s.mass, density=s.density, seed=s.seed, aspect=aspect, periodic=periodic)
     return maxwell_boltzmann(start, s.kT, seed=s.seed + 1)
 

@@ -59,8 +59,8 @@ def parse_features(spec: str) -> frozenset[str]:
         raise FeatureError("white-noise kicks and eMD* cannot be combined")
     if {"emdstar", "well"} <= found:
         raise FeatureError("square wells and eMD* cannot be combined")
-    if "grow" in found and found - {"grow", "debug"}:
-        raise FeatureError("growing particles (compression) are smooth elastic hard spheres in a periodic box: grow takes no other feature")
+    if "grow" in found and found - {"grow", "walls", "debug"}:
+        raise FeatureError("growing particles (compression) are smooth elastic hard spheres in a periodic box or between walls: grow takes only walls")
     if "vibration" in found and "walls" not in found:
         raise FeatureError("a vibrating wall is one of the walls: vibration needs walls")
     return found
@@ -78,7 +78,7 @@ def all_feature_sets() -> list[frozenset[str]]:
     driven = [s | extra for s in sets for extra in ({"bath"}, {"noise"}, {"bath", "noise"}) if not ("emdstar" in s and "noise" in extra)]
     vibrated = [s | {"vibration"} for s in sets if "walls" in s]
     wells = [s | {"well"} for s in sets if "emdstar" not in s]
-    return sets + driven + vibrated + wells + [frozenset({"grow"})]
+    return sets + driven + vibrated + wells + [frozenset({"grow"}), frozenset({"grow", "walls"})]
 
 
 def _variant(features: frozenset[str]):

@@ -126,7 +126,7 @@ def compression(
     comes first; ``pressure=1e12`` (:data:`JAMMED`) compresses to jamming.
 
     Event-driven Lubachevsky–Stillinger growth (:class:`edmd.Growth`): elastic hard spheres or disks
-    in a periodic box, exact pair times with growing radii, velocities rescaled to ``kT`` at the end
+    in a periodic box or between walls, exact pair and wall times with growing radii, velocities rescaled to ``kT`` at the end
     of every segment; size ratios are kept, so any radius distribution can be compressed. Slow rates
     (about 0.01-0.05 per unit time at :math:`kT = 1`, :math:`m = 1`) give equilibrium fluids; fast
     ones glasses. Near jamming the growth must slow down for the packing to find mechanical

@@ -218,9 +218,8 @@ class Engine:
         return self.well is not None or self.growth is not None
 
     def _check_growth(self, state: State):
-        """Growth is built for compressing hard spheres: smooth constant-restitution collisions in a periodic box."""
-        if not np.all(state.periodic):
-            raise StateError("growing particles need a periodic box on every axis (walls do not grow with them)")
+        """Growth is built for compressing hard spheres: smooth constant-restitution collisions, in a
+        periodic box or between fixed walls."""
         if not isinstance(self.rule, collide.Inelastic):
             raise StateError(f"growing particles collide by a constant e_n (edmd.collide.Inelastic), not {type(self.rule).__name__}")
         others = [name for name, x in (("eMD*", self.emd_rule), ("a square well", self.well), ("a thermostat", self.thermostat),
