@@ -36,7 +36,7 @@ class Pair:
         return collide_pair(t, self.P, self.mass, self.omega, self.inertia, self.tlast, 0, 1, GEO, self.fp, self.ip, self.etab, self.acc, self.cnt, self.ip[L.IP_TANGENT], self.ip[L.IP_NORMAL])
 
     def wall(self, axis, face, t=0.0):
-        collide_wall(t, self.P, self.mass, self.omega, self.inertia, self.tlast, 0, axis, face, GEO, self.fp, self.ip, self.etab, self.acc)
+        collide_wall(t, self.P, self.mass, self.omega, self.inertia, self.tlast, 0, axis, face, GEO, self.fp, self.ip, self.etab, self.acc, 0.0)
 
     def energy(self):
         trans = 0.5 * self.mass @ (self.P[:, 3:6] ** 2).sum(axis=1)

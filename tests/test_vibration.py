@@ -236,7 +236,7 @@ def test_moving_wall_collision_in_the_wall_frame(law):
     fp, ip = np.zeros(L.N_FP), np.zeros(L.N_IP, np.int64)
     edmd.collide.pack(edmd.collide.Inelastic(1.0), edmd.collide.Wall(e_n=law), fp, ip)
     acc = np.zeros(L.N_ACC)
-    vn, _vt = collide_wall(0.0, P, mass, omega, inertia, np.full(1, -np.inf), 0, 2, 0, geo, fp, ip, edmd.collide.viscoelastic_table()[0], acc)
+    vn, _vt = collide_wall(0.0, P, mass, omega, inertia, np.full(1, -np.inf), 0, 2, 0, geo, fp, ip, edmd.collide.viscoelastic_table()[0], acc, 0.0)
     e = law if law == 0.7 else VISCO.restitution(u - v, mu=m, r_eff=radius)
     assert e < 0.99
     assert vn == pytest.approx(u - v)
