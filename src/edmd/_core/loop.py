@@ -266,7 +266,7 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well, grow
                         cnt[L.C_BATH] += 1
                     elif walls:
                         wall = kind - L.AUX_WALL
-                        vn, vt = collide_wall(t, P, mass, omega, inertia, tlast, i, wall >> 1, wall & 1, geo, fp, ip, etab, acc, P[i, L.R] * rate)
+                        vn, vt = collide_wall(t, P, mass, omega, inertia, tlast, i, wall >> 1, wall & 1, geo, fp, ip, etab, acc, P[i, L.R] * rate if grow else 0.0)
                         cnt[L.C_WALL] += 1
                         if log_walls and vn > 0.0:  # (an impact: the particle approached the wall)
                             _log_collision(clog, cnt, log_cap, t, i, -1 - wall, vn, vt)  # partner -1 - (2 axis + face)
@@ -280,7 +280,7 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well, grow
                 elif kind >= L.AUX_CELL and kind < L.AUX_WALL:  # a cell crossing (the most frequent
                     # event of dilute gases): a path of its own
                     cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf)
-                    predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t, rate)
+                    predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t, grow, rate)
                     requeue(q, ev, i)
                     continue
                 else:  # no kind of this variant: a bug, never handled as another kind
@@ -335,10 +335,10 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well, grow
                     # a path of its own (as crossings have): a site shared by several event kinds
                     # mixes their branch histories, which cost cell-mode gases 20-30 % (measured)
                     predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate)
-                    predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t, rate)
+                    predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t, grow, rate)
                     requeue(q, ev, i)
                     predict_pair(j, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate)
-                    predict_aux(j, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t, rate)
+                    predict_aux(j, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t, grow, rate)
                     requeue(q, ev, j)
                     continue
             # the shared site of the rare events (every inlined copy of the predictors is compile
@@ -348,7 +348,7 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well, grow
                 if pair:
                     predict_pair(p, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate)
                 if aux:
-                    predict_aux(p, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t, rate)
+                    predict_aux(p, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t, grow, rate)
                 requeue(q, ev, p)
 
     return run_events
@@ -380,7 +380,7 @@ def _make_setup(walls, emd_on, bath_on, well, grow):
             bin_all(P, geo, grid)
         for i in range(n):
             predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate)
-            predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, emd.pending_until, bath_on, drive.bath_t, rate)
+            predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, emd.pending_until, bath_on, drive.bath_t, grow, rate)
         return True
 
     return setup_events

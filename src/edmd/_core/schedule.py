@@ -113,13 +113,13 @@ def _crossing_event(i, t, P, ev, grid, geo):
 
 
 @hot
-def _wall_event(i, t, P, geo, walls, best, kind, rate):
+def _wall_event(i, t, P, geo, walls, best, kind, grow, rate):
     """Improve ``(best, kind)`` with the earliest wall contact of ``i`` (physics.md §1.3; the
-    vibrating wall: §1.6, :mod:`.walls`; a radius growing at the local ``rate``, §1.7, closes the
-    gap :math:`R_0\\gamma` faster)."""
+    vibrating wall: §1.6, :mod:`.walls`; with ``grow``, a radius growing at the local ``rate``,
+    §1.7, closes the gap :math:`R_0\\gamma` faster)."""
     xs = flight(P, i, t, geo)
     r0 = P[i, L.R]
-    r = r0 * (1.0 + rate * t)
+    r = r0 * (1.0 + rate * t) if grow else r0
     for k in range(3):
         if walls & (1 << k):
             x, v, g, half = xs[k], xs[3 + k], geo[L.G_GX + k], 0.5 * geo[k]
@@ -128,26 +128,28 @@ def _wall_event(i, t, P, geo, walls, best, kind, rate):
                 h = half + sign * x - r
                 if is_moving(k, face, geo):  # (called: the vibrating wall's search is not inlined)
                     tk = moving_wall_time(h, sign * v, sign * g, t, geo, best)
-                else:
+                elif grow:
                     tk = gap_time(h, sign * v - r0 * rate, sign * g)
+                else:
+                    tk = gap_time(h, sign * v, sign * g)
                 if tk < best:
                     best, kind = tk, L.AUX_WALL + 2 * k + face
     return best, kind
 
 
 @hot
-def predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t, rate):
+def predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t, grow, rate):
     """Earliest single-particle event of ``i``: shell exit (lists) or cell crossing (cells), a wall
-    (when ``walls``; ``wall_axes`` has bit ``k`` set for axis ``k``; radii growing at the local
-    ``rate``, 0 without growth), its eMD* B event (``ptb``, when ``emd_on``) or its Andersen bath
-    event (``bath_t``, when ``bath_on``)."""
+    (when ``walls``; ``wall_axes`` has bit ``k`` set for axis ``k``; with ``grow``, radii growing at
+    the local ``rate``), its eMD* B event (``ptb``, when ``emd_on``) or its Andersen bath event
+    (``bath_t``, when ``bath_on``)."""
     if mode == NB_LIST:
         ev.aux_t[i] = shell_exit_time(P, i, t, lists, geo, skin)
         ev.aux_k[i] = L.AUX_SHELL
     else:
         _crossing_event(i, t, P, ev, grid, geo)
     if walls:
-        best, kind = _wall_event(i, t, P, geo, wall_axes, ev.aux_t[i] - t, ev.aux_k[i], rate)
+        best, kind = _wall_event(i, t, P, geo, wall_axes, ev.aux_t[i] - t, ev.aux_k[i], grow, rate)
         ev.aux_t[i] = t + best
         ev.aux_k[i] = kind
     if emd_on and ptb[i] < ev.aux_t[i]:  # (hard spheres never touch ptb: no cache miss)
@@ -174,7 +176,7 @@ def repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb, 
     Compiled once and called (eMD* exception b, white-noise kicks); the loop inlines the same steps.
     """
     predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, ip[L.IP_WELL] != 0, well_reach(fp), False, 0.0)
-    predict_aux(i, t, P, ev, grid, lists, geo, mode, ip[L.IP_WALLS] != 0, ip[L.IP_WALLS], ip[L.IP_EMD] != 0, fp[L.FP_SKIN], ptb, ip[L.IP_BATH] != 0, bath_t, 0.0)
+    predict_aux(i, t, P, ev, grid, lists, geo, mode, ip[L.IP_WALLS] != 0, ip[L.IP_WALLS], ip[L.IP_EMD] != 0, fp[L.FP_SKIN], ptb, ip[L.IP_BATH] != 0, bath_t, False, 0.0)
     requeue(q, ev, i)
 
 
