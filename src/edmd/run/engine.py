@@ -147,6 +147,7 @@ class Engine:
             self.growth = growth.resolved(state.time, *args)
             self.growth.pack(self.fp, self.ip)
         #: growing radii, per segment: (time, packing fraction, reduced pressure, collisions) at its end
+        #: (this process's segments: a checkpoint does not carry them)
         self.segments: list[tuple[float, float, float, int]] = []
         self._select_loop(growing=growth is not None)
         self.load(state)
