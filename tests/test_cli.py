@@ -167,6 +167,8 @@ def test_compile_names_a_bad_feature():
     assert r.exit_code == 2 and "cannot be combined" in r.output
     r = runner.invoke(app, ["compile", "vibration"])
     assert r.exit_code == 2 and "vibration needs walls" in r.output
+    r = runner.invoke(app, ["compile", "grow+rough"])
+    assert r.exit_code == 2 and "grow takes only walls" in r.output
 
 
 def test_compile_warms_the_vibrating_wall():
