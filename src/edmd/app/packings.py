@@ -49,7 +49,15 @@ def dilute_start(cfg: Config, target: float | None, film: str | None = None) -> 
 
 def history_csv(history: np.ndarray, n: int) -> str:
     """The compression history of ``n`` particles as CSV text: one row per segment
-    (:data:`edmd.run.compress.HISTORY`) and its ``collision_rate``, collisions per particle and unit time."""
+    (:data:`edmd.run.compress.HISTORY`) and its ``collision_rate``, collisions per particle and unit time.
+
+    Example:
+        >>> from edmd.run.compress import HISTORY
+        >>> print(history_csv(np.array([(1.0, 0.2, 2.5, 100), (2.0, 0.25, 3.0, 300)], dtype=HISTORY), n=50), end="")
+        time,packing_fraction,pressure,collisions,collision_rate
+        1.0,0.2,2.5,100,nan
+        2.0,0.25,3.0,300,4.0
+    """
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
     writer.writerow([*HISTORY.names, "collision_rate"])

@@ -34,6 +34,13 @@ class Compression:
             over it (from the collisions' virial and the time-averaged kinetic energy), and the
             ``collisions`` so far (a structured array with those fields).
         reached: ``"packing_fraction"`` or ``"pressure"``: the target that stopped the growth.
+
+    Example:
+        >>> import edmd
+        >>> start = edmd.maxwell_boltzmann(edmd.random_packing(100, 0.1, seed=1), kT=1.0, seed=2)
+        >>> run = edmd.compression(start, 0.3, rate=0.05)
+        >>> run.reached, round(run.packing_fraction, 12), run.history.dtype.names
+        ('packing_fraction', 0.3, ('time', 'packing_fraction', 'pressure', 'collisions'))
     """
 
     state: State
