@@ -68,7 +68,14 @@ def parse_features(spec: str) -> frozenset[str]:
 
 def all_feature_sets() -> list[frozenset[str]]:
     """The feature sets ``edmd compile --all`` builds: every normal and tangential law with and without
-    walls and eMD*, each with the drivers, a vibrating wall and square wells (debug mode excluded)."""
+    walls and eMD*, each with the drivers, a vibrating wall and square wells (with and without the
+    drivers), and growth (debug mode excluded).
+
+    Example:
+        >>> sets = all_feature_sets()
+        >>> frozenset({"well", "bath", "noise"}) in sets, all(parse_features("+".join(sorted(s)) or "plain") == s for s in sets)
+        (True, True)
+    """
     sets = []
     for walls in ((), ("walls",)):
         for normal in ((), ("soft",)):
@@ -77,7 +84,7 @@ def all_feature_sets() -> list[frozenset[str]]:
         sets.append(frozenset(walls + ("emdstar",)))
     driven = [s | extra for s in sets for extra in ({"bath"}, {"noise"}, {"bath", "noise"}) if not ("emdstar" in s and "noise" in extra)]
     vibrated = [s | {"vibration"} for s in sets if "walls" in s]
-    wells = [s | {"well"} for s in sets if "emdstar" not in s]
+    wells = [s | {"well"} for s in sets + driven if "emdstar" not in s]
     return sets + driven + vibrated + wells + [frozenset({"grow"}), frozenset({"grow", "walls"})]
 
 
