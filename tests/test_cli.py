@@ -256,7 +256,7 @@ def test_compress_names_bad_targets_and_grows_between_walls(tmp_path):
     cfg = tmp_path / "c.toml"
     cfg.write_text(SMALL.format(dim=3))
     bad = ((["--to", "0.8"], "close packing"), (["--jam", "--pressure", "10"], "not both"), (["--pressure", "0.5"], "above 1"),
-           (["--gap", "1e-6"], "--gap goes with"), (["--jam", "--gap", "-1"], "must be positive"), (["--speed", "0.1"], "--speed goes with"), (["--film", "z", "--rate", "0.1"], "its wall moves"))  # fmt: skip
+           (["--gap", "1e-6"], "--gap goes with"), (["--frame", "3"], "give --from too"), (["--jam", "--gap", "-1"], "must be positive"), (["--speed", "0.1"], "--speed goes with"), (["--film", "z", "--rate", "0.1"], "its wall moves"))  # fmt: skip
     for args, words in bad:
         r = runner.invoke(app, ["compress", str(cfg), "--out", str(tmp_path / "p"), "--no-progress", *args])
         assert r.exit_code == 2 and words in r.output, (args, r.output)

@@ -35,6 +35,8 @@ def _fail(msg: str):
 
 def _load_job(config: Path | None, start_from: Path | None, frame: int):
     """The configuration of a new run: a file or the built-in showcase, optionally started from a GSD frame."""
+    if start_from is None and frame != -1:
+        raise ConfigError(f"--frame {frame} picks a frame of --from FILE: give --from too")
     if config is not None:
         cfg = load_config(config)
     else:
