@@ -15,19 +15,19 @@ import numpy as np
 from ..analysis.packing import ContactNetwork
 from ..files.atomic import write_atomic
 from ..files.trajectory import read_state, write_state
-from ..initial import maxwell_boltzmann, random_packing
 from ..run.compress import HISTORY, Compression, at_radii, compress_film, compression
 from ..state import State
 from .config import Config, ConfigError, dump_config
-from .runner import RunDirectoryError
+from .runner import RunDirectoryError, dilute_fraction, random_start
 
 #: files ``edmd compress`` writes into its directory
 PACKING_FILES = ("config.toml", "packing.gsd", "compression.csv", "summary.json", "compression.png", "contacts.png")
 
 
 def dilute_start(cfg: Config, target: float | None, film: str | None = None) -> State:
-    """The particles of ``[system]`` at random in its box (walls on ``[walls]`` axes), at a tenth of the packing fraction
-    (or half the ``target``, if lower), velocities at ``kT`` (or the state of ``system.from_file``).
+    """The particles of ``[system]`` at random in its box (walls on ``[walls]`` axes) at
+    :func:`~edmd.app.runner.dilute_fraction` of the ``target``, velocities at ``kT`` (or the state
+    of ``system.from_file``).
 
     ``film``: an axis closed by ``[walls]``: the box has the walls and twice the configured length along
     that axis, at half the ``target`` (squeezing it to half that length gives the configured box).
@@ -35,16 +35,13 @@ def dilute_start(cfg: Config, target: float | None, film: str | None = None) -> 
     s = cfg.system
     if s.from_file is not None:
         return read_state(s.from_file, s.from_frame)
-    if film is not None and film not in cfg.walls.axes:
+    if film is None:
+        return random_start(cfg, dilute_fraction(target))
+    if film not in cfg.walls.axes:
         raise ConfigError(f"--film {film}: the axis must be closed by walls ([walls] axes = [{film!r}])")
-    radius = s.radius if isinstance(s.radius, float) else s.radius.as_dict()
-    eta = 0.5 * target if film is not None else 0.1 if target is None else min(0.1, 0.5 * target)
     aspect = np.ones(s.dim) if s.aspect is None else np.array(s.aspect, float)
-    if film is not None:
-        aspect["xyz".index(film)] *= 2.0
-    periodic = [axis not in cfg.walls.axes for axis in "xyz"[: s.dim]]
-    start = random_packing(s.n, eta, dim=s.dim, radius=radius, mass=s.mass, density=s.density, seed=s.seed, aspect=aspect, periodic=periodic)
-    return maxwell_boltzmann(start, s.kT, seed=s.seed + 1)
+    aspect["xyz".index(film)] *= 2.0
+    return random_start(cfg, 0.5 * target, aspect)
 
 
 def history_csv(history: np.ndarray, n: int) -> str:

@@ -51,24 +51,45 @@ def build_state(cfg: Config) -> State:
     if s.from_file is not None:
         soft = cfg.integrator.kind == "dem" or cfg.collision.rule == "emdstar"  # soft particles may overlap
         return read_state(s.from_file, s.from_frame, check_overlaps=not soft)
+    if s.init == "lattice":
+        return maxwell_boltzmann(lattice(s.n, s.packing_fraction, kind=s.lattice, **_particles(cfg)), s.kT, seed=s.seed + 1)
+    if s.init == "compress":
+        return compressed_start(cfg)
+    return random_start(cfg, s.packing_fraction)
+
+
+def _particles(cfg: Config) -> dict:
+    """The keywords of ``[system]`` (and ``[walls]``) that every initial state takes."""
+    s = cfg.system
     radius = s.radius if isinstance(s.radius, float) else s.radius.as_dict()
     periodic = [axis not in cfg.walls.axes for axis in "xyz"[: s.dim]]
-    common = dict(
-        n=s.n, packing_fraction=s.packing_fraction, dim=s.dim, radius=radius, mass=s.mass, density=s.density, seed=s.seed, periodic=periodic
-    )
-    if s.init == "lattice":
-        return maxwell_boltzmann(lattice(kind=s.lattice, **common), s.kT, seed=s.seed + 1)
-    if s.init == "compress":
-        return compressed_start(common, s.aspect, s.kT, s.compress_rate)
-    return maxwell_boltzmann(random_packing(aspect=s.aspect, **common), s.kT, seed=s.seed + 1)
+    return dict(dim=s.dim, radius=radius, mass=s.mass, density=s.density, seed=s.seed, periodic=periodic)
 
 
-def compressed_start(common: dict, aspect, kT: float, rate: float) -> State:
+def random_start(cfg: Config, packing_fraction: float, aspect=None) -> State:
+    """The particles of ``[system]`` at random at ``packing_fraction`` in a box of ``aspect`` (default
+    ``system.aspect``; walls on the ``[walls]`` axes), velocities at ``kT``."""
+    s = cfg.system
+    start = random_packing(s.n, packing_fraction, aspect=s.aspect if aspect is None else aspect, **_particles(cfg))
+    return maxwell_boltzmann(start, s.kT, seed=s.seed + 1)
+
+
+def dilute_fraction(target: float | None) -> float:
+    """Where a compression to ``target`` starts: a tenth, or half the target if lower.
+
+    Example:
+        >>> dilute_fraction(0.5), dilute_fraction(0.15), dilute_fraction(None)
+        (0.1, 0.075, 0.1)
+    """
+    return 0.1 if target is None else min(0.1, 0.5 * target)
+
+
+def compressed_start(cfg: Config) -> State:
     """``init = "compress"``: a random start at a low packing fraction, grown to the target by
     :func:`edmd.compress` and scaled back to the configured radii (same packing fraction, smaller box)."""
-    target = common["packing_fraction"]
-    start = random_packing(aspect=aspect, **{**common, "packing_fraction": min(0.1, 0.5 * target)})
-    return at_radii(compress(maxwell_boltzmann(start, kT, seed=common["seed"] + 1), target, rate=rate, kT=kT), start.radius)
+    s = cfg.system
+    start = random_start(cfg, dilute_fraction(s.packing_fraction))
+    return at_radii(compress(start, s.packing_fraction, rate=s.compress_rate, kT=s.kT), start.radius)
 
 
 def build_simulation(cfg: Config, state: State | None = None) -> Simulation:
