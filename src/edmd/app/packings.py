@@ -18,7 +18,7 @@ from ..files.trajectory import read_state, write_state
 from ..run.compress import HISTORY, Compression, at_radii, compress_film, compression
 from ..state import State
 from .config import Config, ConfigError, dump_config
-from .runner import RunDirectoryError, dilute_fraction, random_start
+from .runner import claim_directory, dilute_fraction, random_start
 
 #: files ``edmd compress`` writes into its directory
 PACKING_FILES = ("config.toml", "packing.gsd", "compression.csv", "summary.json", "compression.png", "contacts.png")
@@ -126,13 +126,8 @@ def _write_packing(out: Path, cfg: Config, packing: State):
 
 
 def _claim_packing(out: Path, force: bool):
-    if out.exists() and not out.is_dir():
-        raise RunDirectoryError(f"{out} exists and is not a directory")
     old = [out / name for name in PACKING_FILES if (out / name).exists()]
-    if old and not force:
-        raise RunDirectoryError(f"{out} already holds a packing ({', '.join(p.name for p in old)}): choose another --out or replace it with --force")
-    for path in old:
-        path.unlink()
+    claim_directory(out, old, force, "already holds a packing ({names}): choose another --out or replace it with --force")
 
 
 def _summary(run: Compression, packing: State, rate: float, cpu: float, net: ContactNetwork | None) -> dict:

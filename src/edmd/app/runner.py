@@ -151,16 +151,19 @@ def run_files(out: Path) -> list[Path]:
 def _claim(out: Path, force: bool):
     """Refuse a directory holding another run's files, unless ``force`` (nothing is created then);
     with ``force``, create the directory and remove them all."""
+    refusal = "already holds a run ({names}): continue it with `edmd run --restart {out}`, choose another --out, or replace it with --force"
+    claim_directory(out, run_files(out) if out.is_dir() else [], force, refusal)
+
+
+def claim_directory(out: Path, old: list[Path], force: bool, refusal: str):
+    """Refuse directory ``out`` if it holds the files ``old`` (``refusal``: the rest of the message,
+    with ``{names}`` and ``{out}``), unless ``force``; with ``force``, create it and remove them."""
     if out.exists() and not out.is_dir():
         raise RunDirectoryError(f"{out} exists and is not a directory")
-    old = run_files(out) if out.is_dir() else []
     if not force:
         if old:
             names = ", ".join(p.name for p in old[:6]) + (", ..." if len(old) > 6 else "")
-            raise RunDirectoryError(
-                f"{out} already holds a run ({names}): continue it with `edmd run --restart {out}`, choose another "
-                "--out, or replace it with --force"
-            )
+            raise RunDirectoryError(f"{out} " + refusal.format(names=names, out=out))
         return
     out.mkdir(parents=True, exist_ok=True)
     for path in old:
