@@ -6,6 +6,8 @@ import math
 import os
 from collections.abc import Iterable, Iterator
 
+import numpy as np
+
 from ..state import State, StateError
 
 
@@ -70,6 +72,25 @@ def compressibility_factor(eta: float, dim: int, g_contact: float | None = None)
     """
     g = contact_value(eta, dim) if g_contact is None else g_contact
     return 1.0 + 2 ** (dim - 1) * eta * g
+
+
+def box_tree(state: State, reach: float):
+    """A scipy k-d tree of ``state``'s positions, shifted into ``[0, L)`` and wrapped on its periodic
+    axes (a closed axis is padded: no image within ``reach``), and those points.
+
+    Example:
+        >>> import edmd
+        >>> tree, points = box_tree(edmd.lattice(27, 0.3), reach=1.0)
+        >>> bool(points.min() >= 0.0), len(tree.query_pairs(0.1))
+        (True, 0)
+    """
+    from scipy.spatial import cKDTree
+
+    box, periodic = state.box, state.periodic
+    points = state.position + 0.5 * box
+    points = np.where(periodic, np.mod(points, box), points)
+    points = np.where(periodic & (points >= box), 0.0, points)  # mod may round up to L
+    return cKDTree(points, boxsize=np.where(periodic, box, box + 2.0 * reach)), points
 
 
 def axes(ax=None, figsize=(5.0, 3.8)):

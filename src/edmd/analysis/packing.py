@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..state import State, StateError
-from ._common import axes
+from ._common import axes, box_tree
 
 
 def contact_pairs(state: State, gap: float = 1e-9) -> np.ndarray:
@@ -27,18 +27,13 @@ def contact_pairs(state: State, gap: float = 1e-9) -> np.ndarray:
         >>> contact_pairs(s).shape, contact_pairs(s, gap=0.06).shape   # within 6 %: 4 neighbours each
         ((0, 2), (32, 2))
     """
-    from scipy.spatial import cKDTree
-
     if not (np.isfinite(gap) and gap > 0):
         raise StateError(f"the contact gap must be a positive number, got {gap!r}")
     box, periodic = state.box, state.periodic
     reach = 2.0 * float(state.radius.max()) * (1.0 + gap)
     if np.any(periodic & (box < 2.0 * reach)):
         raise StateError(f"contacts need periodic box lengths of at least twice the largest contact distance ({2 * reach:g})")
-    points = state.position + 0.5 * box
-    points = np.where(periodic, np.mod(points, box), points)
-    points = np.where(periodic & (points >= box), 0.0, points)  # mod may round up to L
-    tree = cKDTree(points, boxsize=np.where(periodic, box, box + 2.0 * reach))  # a closed axis: no image within reach
+    tree, _ = box_tree(state, reach)
     pairs = tree.query_pairs(reach, output_type="ndarray")
     if pairs.size == 0:
         return np.zeros((0, 2), np.int64)

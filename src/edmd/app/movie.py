@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ..files.atomic import atomic_path
-from ..analysis._common import axes
+from ..analysis._common import axes, box_tree
 from .plots import sample_particles, slab_mask
 from ..state import State
 from ..files.trajectory import frame_count, iter_states
@@ -60,16 +60,11 @@ def local_packing_fraction(state: State, radius: float | None = None, particles=
         >>> bool(np.allclose(eta, eta[0])), round(float(eta[0] / (13 * 0.5**2 / (2.05 * a) ** 2)), 12)
         (True, 1.0)
     """
-    from scipy.spatial import cKDTree
-
     box, periodic = state.box, state.periodic
     r = DENSITY_RADIUS * 2.0 * float(state.radius.mean()) if radius is None else float(radius)
     if periodic.any():
         r = min(r, 0.5 * float(box[periodic].min()))
-    points = state.position + 0.5 * box
-    points = np.where(periodic, np.mod(points, box), points)
-    points = np.where(periodic & (points >= box), 0.0, points)  # mod may round up to L
-    tree = cKDTree(points, boxsize=np.where(periodic, box, box + 2.0 * r))  # a closed axis: no image within r
+    tree, points = box_tree(state, r)
     counts = tree.query_ball_point(points if particles is None else points[particles], r, return_length=True)
     return counts * float(np.mean(state.radius**state.dim)) / r**state.dim
 
