@@ -205,6 +205,20 @@ class State:
                 f"[-L/2, L/2) with L = {self.box.tolist()}"
             )
 
+    def contact_ratio(self, i, j):
+        """:math:`r_{ij}/(R_i + R_j)` of particles ``i`` and ``j`` (indices, or arrays of them), the
+        distance by the minimum image on the periodic axes.
+
+        Example:
+            >>> import edmd
+            >>> s = edmd.lattice(8, 0.1, kind="sc")       # 2 x 2 x 2 sites, spacing a: a^3 = (pi / 6) / 0.1
+            >>> bool(np.isclose(s.contact_ratio(0, 1), (np.pi / 6 / 0.1) ** (1 / 3)))
+            True
+        """
+        d = self.position[i] - self.position[j]
+        d = d - np.where(self.periodic, self.box * np.round(d / self.box), 0.0)
+        return np.sqrt(np.sum(d * d, axis=-1)) / (self.radius[i] + self.radius[j])
+
     def overlapping_pair(self, rel_tol: float = OVERLAP_TOLERANCE):
         """The most overlapping pair ``(i, j, distance)`` beyond ``rel_tol``, or ``None``."""
         box, half = self.geometry()

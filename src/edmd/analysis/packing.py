@@ -37,10 +37,7 @@ def contact_pairs(state: State, gap: float = 1e-9) -> np.ndarray:
     pairs = tree.query_pairs(reach, output_type="ndarray")
     if pairs.size == 0:
         return np.zeros((0, 2), np.int64)
-    d = state.position[pairs[:, 0]] - state.position[pairs[:, 1]]
-    d -= np.where(periodic, box * np.round(d / box), 0.0)
-    sigma = state.radius[pairs[:, 0]] + state.radius[pairs[:, 1]]
-    touching = np.sqrt(np.sum(d * d, axis=1)) / sigma - 1.0 < gap
+    touching = state.contact_ratio(pairs[:, 0], pairs[:, 1]) - 1.0 < gap
     pairs = np.sort(pairs[touching].astype(np.int64), axis=1)
     return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
 

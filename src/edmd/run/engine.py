@@ -408,9 +408,7 @@ class Engine:
         capture_by_distance(self.part.rows, geometric, self.lists, self.geo, reach, 0.0)
         found = {tuple(sorted(p)) for p in self.tag[captured_pairs(geometric)].tolist()}
         for i, j in found ^ {tuple(p) for p in state.captured_pairs.tolist()}:
-            d = state.position[i] - state.position[j]
-            d -= np.where(state.periodic, state.box * np.round(d / state.box), 0.0)
-            r = float(np.linalg.norm(d)) / (state.radius[i] + state.radius[j])
+            r = float(state.contact_ratio(i, j))
             if abs(r / reach - 1.0) > 1e-9:
                 inside = "inside the edge but not captured" if r < reach else "captured but beyond the edge"
                 raise StateError(
