@@ -24,6 +24,7 @@ Usage::
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import re
 import shutil
@@ -69,34 +70,97 @@ def run_lammps(lmp: str, workdir: Path, script: str) -> str:
     return res.stdout
 
 
+def _two_spheres_script(pair: str, dt: float, steps: int, atoms) -> str:
+    """LAMMPS input of two unit spheres (mass 1, diameter 1): ``atoms`` = ((position, velocity, spin), ...); dumps the end state."""
+    lines = ["units lj", "atom_style sphere", "atom_modify map array", "boundary p p p", "region box block -10 10 -10 10 -10 10", "create_box 1 box"]
+    lines += [f"create_atoms 1 single {x[0]!r} {x[1]!r} {x[2]!r}" for x, _v, _w in atoms]
+    lines += ["set atom * diameter 1.0", f"set atom * density {6 / np.pi!r}", "velocity all set 0 0 0"]
+    for i, (_x, v, w) in enumerate(atoms, start=1):
+        lines.append(f"set atom {i} vx {v[0]!r} vy {v[1]!r} vz {v[2]!r} omega {w[0]!r} {w[1]!r} {w[2]!r}")
+    lines += [pair.rstrip("\n"), "comm_modify vel yes", "neighbor 0.3 bin", "fix 1 all nve/sphere", f"timestep {dt!r}", f"run {steps}"]
+    lines.append("write_dump all custom end.dump id vx vy vz omegax omegay omegaz modify sort id format float %.17g")
+    return "\n".join(lines) + "\n"
+
+
+def _run_two_spheres(lmp: str, pair: str, dt: float, steps: int, atoms) -> np.ndarray:
+    """End velocities and spins ``(2, 6)`` of the two spheres in LAMMPS."""
+    with tempfile.TemporaryDirectory() as d:
+        run_lammps(lmp, Path(d), _two_spheres_script(pair, dt, steps, atoms))
+        rows = (Path(d) / "end.dump").read_text().splitlines()[-2:]
+    return np.array([[float(x) for x in r.split()[1:]] for r in rows])
+
+
 def head_on_restitution(lmp: str, contact: Hertz, speed: float) -> float:
     """e_n of a head-on collision of two unit spheres (mass 1) in LAMMPS."""
-    with tempfile.TemporaryDirectory() as d:
-        t_c = contact.central(1.0, 1.0, 0.5, 0.5, speed).t_c
-        steps = int(round(3.0 / speed / (t_c / 2000)))
-        script = f"""units lj
-atom_style sphere
-atom_modify map array
-boundary p p p
-region box block -10 10 -10 10 -10 10
-create_box 1 box
-create_atoms 1 single -1.0 0 0
-create_atoms 1 single 1.0 0 0
-set atom * diameter 1.0
-set atom * density {6 / np.pi!r}
-velocity all set 0 0 0
-set atom 1 vx {speed / 2!r}
-set atom 2 vx {-speed / 2!r}
-{lammps_pair(contact, 1.0)}comm_modify vel yes
-neighbor 0.3 bin
-fix 1 all nve
-timestep {t_c / 2000!r}
-variable v2 equal vx[2]
-run {steps}
-print "V2 ${{v2}}"
-"""
-        out = run_lammps(lmp, Path(d), script)
-        return 2.0 * float(re.search(r"^V2 (\S+)", out, re.M).group(1)) / speed
+    t_c = contact.central(1.0, 1.0, 0.5, 0.5, speed).t_c
+    steps = int(round(3.0 / speed / (t_c / 2000)))
+    atoms = (((-1.0, 0.0, 0.0), (speed / 2, 0.0, 0.0), (0.0, 0.0, 0.0)), ((1.0, 0.0, 0.0), (-speed / 2, 0.0, 0.0), (0.0, 0.0, 0.0)))
+    end = _run_two_spheres(lmp, lammps_pair(contact, 1.0), t_c / 2000, steps, atoms)
+    return 2.0 * end[1, 0] / speed
+
+
+#: the oblique collision with spin of the friction check: positions, velocities, spins (gap 0.01 along x)
+OBLIQUE = (((-0.505, 0.0, 0.0), (0.5, 0.3, -0.1), (0.4, 0.2, -1.0)), ((0.505, 0.0, 0.0), (-0.5, -0.2, 0.1), (-0.2, 0.6, 0.4)))
+
+
+def friction_pairs(case: str):
+    """The two frictional laws compared: ``(edmd contact, edmd friction, LAMMPS pair lines)``.
+
+    ``dashpot``: Hooke with a constant damping and ``linear_history`` (k_t = 2/7 k_n, x_t = 0.5,
+    mu = 0.3); ``mindlin``: viscoelastic Hertz with Mindlin's stiffness (NULL: 8 G_eff) and the
+    same x_t and mu. LAMMPS applies the torque at the centre of the overlap, as edmd does, but
+    takes the sliding velocity with the full radii: a difference of order overlap / radius.
+    """
+    from edmd.physics.contact import LinearDashpot
+    from edmd.physics.friction import Friction
+
+    if case == "dashpot":
+        contact = LinearDashpot(k=1e10, gamma=1e4)
+        friction = Friction(mu=0.3, stiffness=2e10 / 7, damping=0.5)
+        pair = f"pair_style granular\npair_coeff * * hooke {contact.k!r} {contact.gamma!r} tangential linear_history {friction.stiffness!r} 0.5 0.3 damping velocity limit_damping\n"
+    else:
+        contact = Hertz(young=1e12, poisson=0.3, A=2e-7)
+        friction = Friction(mu=0.3, law="mindlin", damping=0.5)
+        eta0 = contact.A * contact.young / ((1.0 - contact.poisson**2) * 0.5)
+        pair = f"pair_style granular\npair_coeff * * hertz/material {contact.young!r} {eta0!r} {contact.poisson!r} tangential mindlin NULL 0.5 0.3 damping viscoelastic limit_damping\n"
+    return contact, friction, pair
+
+
+def oblique_edmd(contact, friction, dt: float, steps: int) -> np.ndarray:
+    """End velocities and spins ``(2, 6)`` of :data:`OBLIQUE` in edmd's DEM."""
+    x, v, w = (np.array([a[k] for a in OBLIQUE], float) for k in range(3))
+    state = edmd.State(position=x, velocity=v, angular_velocity=w, radius=[0.5, 0.5], mass=[1.0, 1.0], box=[20.0, 20.0, 20.0])
+    sim = edmd.DEMSimulation(state, contact, dt=dt, friction=friction)
+    sim.run(until_time=dt * steps)
+    end = sim.state
+    return np.hstack([end.velocity, end.angular_velocity])
+
+
+def oblique_check(lmp: str, divisions=(50, 200, 800)) -> list[dict]:
+    """The oblique frictional collision in both codes at several time steps (per contact duration).
+
+    Both are also compared with edmd at 4x the finest resolution (the reference): each code's
+    error at a step size, and the difference of the two, which must shrink with the step.
+    """
+    out = []
+    for case in ("dashpot", "mindlin"):
+        contact, friction, pair = friction_pairs(case)
+        t_c = contact.central(1.0, 1.0, 0.5, 0.5, 1.0).t_c
+        span = 0.02 + 2.0 * t_c  # gap 0.01 closed at speed 1, then the contact and some flight
+        ref_dt = t_c / (4 * max(divisions))
+        ref = oblique_edmd(contact, friction, ref_dt, int(math.ceil(span / ref_dt)))
+        for div in divisions:
+            steps = int(math.ceil(span / (t_c / div)))
+            dt = span / steps  # both codes end at the same time as the reference
+            a = _run_two_spheres(lmp, pair, dt, steps, OBLIQUE)
+            b = oblique_edmd(contact, friction, dt, steps)
+            err = {"lammps_vs_edmd": float(np.abs(a - b).max()), "lammps_vs_reference": float(np.abs(a - ref).max()), "edmd_vs_reference": float(np.abs(b - ref).max())}
+            out.append({"law": case, "steps_per_contact": div, "dt": dt, "lammps": a.tolist(), "edmd": b.tolist(), "reference": ref.tolist(), **err})
+            print(
+                f"oblique {case:8s} {div:4d} steps/contact, max over v and omega: |LAMMPS - edmd| {err['lammps_vs_edmd']:.2e}, "
+                f"|LAMMPS - ref| {err['lammps_vs_reference']:.2e}, |edmd - ref| {err['edmd_vs_reference']:.2e}"
+            )
+    return out
 
 
 def compare(lmp: str, contact: Hertz, n: int, eta: float, steps: int, repeats: int) -> dict:

@@ -59,7 +59,7 @@ CONTACTS = {
     "dashpot-dissipative": (LinearDashpot(k=1e4, gamma=20.0), 1.7),
     "hertz-elastic": (Hertz(young=1e6, poisson=0.3), 1.7),
     # the viscoelastic damping force grows as sqrt(s) after onset: order 2 at these steps,
-    # ~1.5 asymptotically (see edmd._core.dem._onset_impulse)
+    # ~1.5 asymptotically (see edmd._core.dem._onset_weight)
     "hertz-viscoelastic": (Hertz(young=1e6, poisson=0.3, A=1e-3), 1.4),
 }
 

@@ -11,6 +11,7 @@ from .files.checkpoint import Checkpoint, CheckpointError, read_checkpoint
 from .app.config import Config, ConfigError, load_config, parse_config
 from .physics import collide
 from .physics.contact import ContactError, Hertz, LinearDashpot
+from .physics.friction import Friction
 from .run.dem import DEMSimulation
 from .run.engine import CollapseError, EngineError, EngineOptions
 from .initial import lattice, maxwell_boltzmann, radii, random_packing
@@ -39,6 +40,7 @@ __all__ = [
     "DEMSimulation",
     "EngineError",
     "EngineOptions",
+    "Friction",
     "Hertz",
     "LinearDashpot",
     "Observer",

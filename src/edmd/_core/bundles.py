@@ -107,6 +107,20 @@ class Drive(NamedTuple):
     axes: np.ndarray  #: (2, 3) int64: velocity (row 0) and spin (row 1) components that random draws touch
 
 
+class Spins(NamedTuple):
+    """Rotation and contact history of the frictional DEM (:mod:`.dem`); arrays with one row (and
+    one history column) when the contacts are frictionless."""
+
+    omega: np.ndarray  #: (N, 3) angular velocity (2D: z only)
+    omega_p: np.ndarray  #: (N, 3) angular velocity extrapolated to the end of the step (for the damping)
+    alpha: np.ndarray  #: (N, 3) angular acceleration
+    inertia: np.ndarray  #: (N,) moment of inertia
+    hist: np.ndarray  #: (N, K, 3) tangential spring of each half-list entry
+    hist_old: np.ndarray  #: (N, K, 3) the springs of the previous list (carried into a new one)
+    nbl_old: np.ndarray  #: (N, K) int32 the previous list
+    nbl_n_old: np.ndarray  #: (N,) int32 its row lengths
+
+
 def new_events(n: int) -> Events:
     """No event predicted yet for ``n`` particles."""
     return Events(np.full(n, np.inf), np.full(n, -1, np.int32), np.zeros(n, np.int32), np.full(n, np.inf), np.zeros(n, np.int32))

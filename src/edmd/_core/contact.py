@@ -70,3 +70,37 @@ def table_coordinates(model, a, b, mu, reff, sigma, v):
     if model == MODEL_HERTZ:
         return c, lam
     return 0.5 * c, lam
+
+
+@leaf
+def normal_damping(model, a, b, reff, xi):
+    r"""Normal damping coefficient :math:`\eta_n = \partial F/\partial\dot\xi` at overlap ``xi``: :math:`\gamma` or :math:`\tfrac32A\rho\sqrt\xi`."""
+    if model == MODEL_HERTZ:
+        return a * math.sqrt(reff * xi) * b
+    return b
+
+
+@leaf
+def tangential_force(law, kt, xt, mu, eta_n, fn, reff, xi, zx, zy, zz, ux, uy, uz):
+    r"""Cundall–Strack tangential force of spring extension ``z`` and sliding velocity ``u`` (docs/physics.md §2.6).
+
+    .. math::
+        \mathbf F^* = -k_t\boldsymbol\zeta - x_t\eta_n\mathbf u,\qquad
+        \mathbf F_t = \mathbf F^*\min\Big(1, \frac{\mu F_n}{|\mathbf F^*|}\Big)
+
+    with :math:`k_t` constant (``law`` 1) or :math:`k_t\sqrt{R_{\rm eff}\xi}` (``law`` 2, Mindlin).
+    Returns ``(Fx, Fy, Fz, k, slides)``: the force, the spring stiffness in use and whether the
+    Coulomb limit cut the force (then the caller resets the spring to
+    :math:`-(\mathbf F_t + x_t\eta_n\mathbf u)/k`).
+    """
+    k = kt if law == 1 else kt * math.sqrt(reff * xi)
+    eta = xt * eta_n
+    fx = -k * zx - eta * ux
+    fy = -k * zy - eta * uy
+    fz = -k * zz - eta * uz
+    f2 = fx * fx + fy * fy + fz * fz
+    lim = mu * fn if fn > 0.0 else 0.0
+    if f2 > lim * lim:
+        s = lim / math.sqrt(f2)
+        return fx * s, fy * s, fz * s, k, True
+    return fx, fy, fz, k, False

@@ -305,6 +305,22 @@ class ContactConfig(_Section):
         return _build_soft_law(self.model, self, mass)
 
 
+class FrictionConfig(_Section):
+    """``[friction]``: tangential spring, damping and Coulomb slider of the DEM's contacts (see
+    :mod:`edmd.physics.friction`); the particles' spins then evolve."""
+
+    mu: float = Field(ge=0, allow_inf_nan=True, description="Coulomb friction coefficient (inf: never slides)")
+    law: Literal["linear", "mindlin"] = Field("linear", description="linear: constant k_t (Cundall-Strack); mindlin: k_t = stiffness * contact radius")
+    stiffness: float | None = Field(None, gt=0, allow_inf_nan=False, description="k_t (linear, needed) or k_t0 (mindlin; default 8 G_eff of the Hertz law)")
+    damping: float = Field(0.0, ge=0, allow_inf_nan=False, description="tangential damping as a multiple of the normal damping coefficient")
+
+    def build(self):
+        """The :class:`~edmd.physics.friction.Friction`."""
+        from ..physics.friction import Friction
+
+        return Friction(mu=self.mu, law=self.law, stiffness=self.stiffness, damping=self.damping)
+
+
 class ThermostatConfig(_Section):
     """``[thermostat]``: a heat bath acting through events (:class:`edmd.Andersen`), or exact
     rescaling of the temperature at fixed intervals (:class:`edmd.VelocityRescale`)."""
@@ -406,6 +422,7 @@ class Config(_Section):
     output: OutputConfig = OutputConfig()
     integrator: IntegratorConfig = IntegratorConfig()
     contact: ContactConfig | None = None
+    friction: FrictionConfig | None = None
     thermostat: ThermostatConfig | None = None
     forcing: ForcingConfig | None = None
     vibration: VibrationConfig | None = None
@@ -422,8 +439,14 @@ class Config(_Section):
                 raise ValueError("the DEM needs a periodic box: leave walls.axes empty")
             if any(x is not None for x in (self.thermostat, self.forcing, self.vibration, self.well)):
                 raise ValueError("[thermostat], [forcing], [vibration] and [well] act through events: they need integrator.kind = 'edmd'")
+            if self.friction is not None and self.friction.law == "mindlin" and self.friction.stiffness is None and self.contact.model != "hertz":
+                raise ValueError("friction.law = 'mindlin' takes its stiffness from a Hertz [contact]; give friction.stiffness for a dashpot")
+            if self.friction is not None and self.friction.law == "linear" and self.friction.stiffness is None:
+                raise ValueError("friction.law = 'linear' needs friction.stiffness (the tangential spring constant k_t)")
         elif self.contact is not None:
             raise ValueError("[contact] is used by integrator.kind = 'dem' only")
+        elif self.friction is not None:
+            raise ValueError("[friction] is used by integrator.kind = 'dem' only (frictional contacts of soft particles)")
         return self
 
 
@@ -640,6 +663,11 @@ kind = "edmd"             # "edmd" (event-driven, hard particles) or "dem" (forc
 # model = "dashpot"       # "dashpot": k, gamma (or e_n); "hertz": young, poisson, A
 # k = 1e4
 # e_n = 0.9
+# [friction]              # optional with kind = "dem": tangential spring + Coulomb slider, spins evolve
+# mu = 0.3                # Coulomb coefficient (inf: never slides)
+# law = "linear"          # "linear" (k_t = stiffness) or "mindlin" (k_t = stiffness * contact radius)
+# stiffness = 2857.0      # k_t; mindlin with a Hertz contact may leave it out (8 G_eff)
+# damping = 0.0           # tangential damping / normal damping coefficient
 """
 
 #: The built-in job of ``edmd run`` without a configuration: a freely cooling granular gas

@@ -104,9 +104,11 @@ def build_simulation(cfg: Config, state: State | None = None) -> Simulation:
 
         i = cfg.integrator
         contact = cfg.contact.build(float(state.mass.mean()))
+        friction = None if cfg.friction is None else cfg.friction.build()
         return DEMSimulation(
-            state, contact, dt=i.dt, steps_per_contact=i.steps_per_contact, impact_speed=i.impact_speed, gravity=cfg.system.gravity, skin=i.skin
-        )
+            state, contact, dt=i.dt, steps_per_contact=i.steps_per_contact, impact_speed=i.impact_speed, gravity=cfg.system.gravity, skin=i.skin,
+            friction=friction,
+        )  # fmt: skip
     e = cfg.engine
     options = EngineOptions(neighbours=e.neighbours, skin=e.skin, resync_every=e.resync_every, events_per_bucket=e.events_per_bucket, debug=e.debug)
     rule = cfg.collision.build(float(state.mass.mean()))

@@ -42,9 +42,11 @@ import numpy as np
 
 from .._core import dem as _dem
 from .._core import layout as L
+from .._core.bundles import Spins
 from .._core.cells import new_grid
 from .memory import grid_shape
 from ..physics.contact import ContactModel, Hertz
+from ..physics.friction import Friction
 from .engine import EngineError
 from .simulation import Simulation
 from ..state import State, StateError
@@ -77,6 +79,11 @@ def shortest_contact(contact: ContactModel, state: State, impact_speed: float) -
     return contact.central(m1, m2, r1, r2, impact_speed).t_c
 
 
+def _spin_axes(dim: int) -> slice:
+    """The components of the core's ``(N, 3)`` spins that a state holds (2D: about z only)."""
+    return slice(2, 3) if dim == 2 else slice(0, 3)
+
+
 class DEMEngine:
     """Compiled-core arrays of one DEM system (internal; see :class:`DEMSimulation`).
 
@@ -94,12 +101,14 @@ class DEMEngine:
     growth = None
     well_energy = 0.0  # (no square wells: the contacts' energy is the elastic energy)
 
-    def __init__(self, state: State, contact: ContactModel, dt: float, skin: float, gravity=None):
+    def __init__(self, state: State, contact: ContactModel, dt: float, skin: float, gravity=None, friction: Friction | None = None):
         if not np.all(state.periodic):
             raise StateError("the DEM needs a periodic box on every axis (walls are not supported)")
         self.contact = contact
         self.model = contact.code
         self.ca, self.cb = contact.constants()
+        self.friction = friction
+        self.fric = (0, 0.0, 0.0, 0.0) if friction is None else friction.constants(contact)
         self.dim = state.dim
         self.n = state.n
         self.box_user = state.box.copy()
@@ -151,20 +160,30 @@ class DEMEngine:
         self.vp = np.zeros((n, 3))
         self.dsp = np.zeros((n, 3))
         self.grid = new_grid(n, self.box, self.grid_cells)
+        rows = n if self.friction is not None else 1
+        omega = np.zeros((rows, 3))
+        if self.friction is not None:
+            omega[:, _spin_axes(d)] = self.spin.reshape(n, -1)  # 2D: the spin about z
+        self.rot = Spins(omega, omega.copy(), np.zeros((rows, 3)), self.inertia, np.zeros((rows, 1, 3)), np.zeros((rows, 1, 3)), np.zeros((rows, 1), np.int32), np.zeros(rows, np.int32))
         self._setup()
 
     def _setup(self):
+        """Allocate the list at the current capacity and build it; springs come from ``rot.nbl_old``."""
         while True:
             self.nbl = np.zeros((self.n, self.capacity), np.int32)
             self.nbl_n = np.zeros(self.n, np.int32)
             self.tch = np.zeros((self.n, self.capacity), np.int8)
+            if self.friction is not None:
+                self.rot = self.rot._replace(hist=np.zeros((self.n, self.capacity, 3)))
             ok = _dem.dem_setup(
                 self.pos, self.vel, self.acc3, self.vp, self.dsp, self.mass, self.radius, self.nbl, self.nbl_n,
-                self.tch, self.grid, self.geo, self.model, self.ca, self.cb, self.skin, self.sums, self.cbuf,
+                self.tch, self.grid, self.geo, self.model, self.ca, self.cb, self.rot, self.fric, self.skin, self.sums, self.cbuf,
             )  # fmt: skip
             if ok:
-                return
+                break
             self.capacity = int(self.capacity * 1.5) + 4
+        if self.friction is not None:  # the scratch of the next rebuild
+            self.rot = self.rot._replace(hist_old=np.zeros_like(self.rot.hist), nbl_old=np.zeros_like(self.nbl), nbl_n_old=np.zeros_like(self.nbl_n))
 
     # ------------------------------------------------------------------ running
     @property
@@ -197,8 +216,8 @@ class DEMEngine:
             k = int(min(nseg, budget, chunk))
             status, done = _dem.dem_steps(
                 self.pos, self.vel, self.acc3, self.vp, self.dsp, self.image, self.mass, self.radius, self.nbl,
-                self.nbl_n, self.tch, self.grid, self.geo, self.model, self.ca, self.cb, self.skin, h, k, self.sums,
-                self.cnt, self.cbuf,
+                self.nbl_n, self.tch, self.grid, self.geo, self.model, self.ca, self.cb, self.rot, self.fric, self.skin, h, k,
+                self.sums, self.cnt, self.cbuf,
             )  # fmt: skip
             self.t = float(t_stop) if done == nseg else self.t + done * h
             budget -= done
@@ -216,7 +235,9 @@ class DEMEngine:
 
     def _sync(self):
         self.acc[L.A_VIRIAL] = self.sums[_dem.S_VIR_INT]
-        self.acc[L.A_DISSIPATED] = self.sums[_dem.S_DISS]
+        self.acc[L.A_DISSIPATED] = self.sums[_dem.S_DISS] + self.sums[_dem.S_WT] - self.sums[_dem.S_UT]
+        if self.friction is not None:
+            self.spin = self.rot.omega[:, _spin_axes(self.dim)].reshape(self.spin.shape).copy()
         self.acc[L.A_KE] = self.sums[_dem.S_KE]
         self.acc[L.A_NOW] = self.t
 
@@ -262,6 +283,8 @@ class DEMSimulation(Simulation):
             largest particle speed, plus the free-fall speed across the box with gravity).
         gravity: uniform acceleration (``d`` numbers) or ``None``.
         skin: neighbour-list skin in mean diameters.
+        friction: a :class:`~edmd.physics.friction.Friction` (tangential spring, damping and
+            Coulomb slider; the particles' spins then evolve) or ``None`` (frictionless).
 
     Example:
         >>> import edmd
@@ -282,9 +305,14 @@ class DEMSimulation(Simulation):
         impact_speed: float | None = None,
         gravity=None,
         skin: float = SKIN,
+        friction: Friction | None = None,
     ):
         if not isinstance(contact, ContactModel):
             raise TypeError(f"contact must be a LinearDashpot or Hertz model, got {contact!r}")
+        if friction is not None:
+            if not isinstance(friction, Friction):
+                raise TypeError(f"friction must be an edmd.Friction or None, got {friction!r}")
+            friction.stiffness_for(contact)  # Mindlin needs a stiffness or a Hertz law
         if not isinstance(state, State):
             raise TypeError(f"state must be an edmd.State, got {type(state).__name__}")
         if not (steps_per_contact > 0 and math.isfinite(steps_per_contact)):
@@ -297,6 +325,7 @@ class DEMSimulation(Simulation):
                 speed += math.sqrt(2.0 * float(np.linalg.norm(gravity)) * float(state.box.max()))
             impact_speed = speed
         self.contact = contact
+        self.friction = friction
         self.impact_speed = float(impact_speed)
         if dt is None:
             if isinstance(contact, Hertz) and not self.impact_speed > 0:
@@ -317,8 +346,9 @@ class DEMSimulation(Simulation):
             "contact": {"type": type(self.contact).__name__, **dataclasses.asdict(self.contact)},
             "dt": self._step,
             "gravity": None if gravity is None else [float(g) for g in gravity],
+            "friction": None if self.friction is None else dataclasses.asdict(self.friction),
         }
-        return DEMEngine(state, self.contact, self._step, self._skin, gravity)
+        return DEMEngine(state, self.contact, self._step, self._skin, gravity, self.friction)
 
     @property
     def dt(self) -> float:
