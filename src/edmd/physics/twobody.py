@@ -28,6 +28,7 @@ import math
 import numpy as np
 
 from .._core import contact as _c
+from .._core import twobody_friction as _tf
 from .._core.twobody import lab_frame_update as _lab_frame_update
 from .._core.twobody import solve_scaled
 from .contact import MODELS, ContactError, ContactModel, _positive, pair_constants
@@ -225,4 +226,154 @@ def lab_frame_update(r1, r2, v1, v2, m1, m2, R1, R2, restitution: Restitution) -
     return LabUpdate(out[0], out[1], out[2], out[3], out[4], float(vn), float(vt))
 
 
-__all__ = ["LabUpdate", "Restitution", "collide", "lab_frame_update", "model_code", "pair_constants", "solve"]
+@dataclasses.dataclass(frozen=True)
+class FrictionalCollision:
+    r"""The end of one frictional contact (docs/physics.md §4.11), in the lab frame.
+
+    Attributes:
+        t_c: contact duration (the normal force vanishes).
+        r1, r2: positions at :math:`t_0 + t_c` (the centre of mass in free flight, no gravity).
+        v1, v2: velocities at :math:`t_0 + t_c`.
+        omega1, omega2: spins at :math:`t_0 + t_c` (2D: scalars).
+        switches: stick/slip switches during the contact.
+        sliding: whether the contact ended sliding.
+        spring_energy: energy left in the tangential spring at the end (lost with the contact).
+    """
+
+    t_c: float
+    r1: np.ndarray
+    r2: np.ndarray
+    v1: np.ndarray
+    v2: np.ndarray
+    omega1: np.ndarray | float
+    omega2: np.ndarray | float
+    switches: int
+    sliding: bool
+    spring_energy: float
+
+
+def _spin3(name, w, d):
+    if d == 2:
+        try:
+            return np.array([0.0, 0.0, float(w)])
+        except (TypeError, ValueError):
+            raise ContactError(f"{name} of a disk must be a number (the spin about z), got {w!r}") from None
+    a, dw = _vec3(name, w)
+    if dw != 3:
+        raise ContactError(f"{name} of a sphere must be 3 numbers, got {w!r}")
+    return a
+
+
+def _collision_frame(ex, g):
+    """Columns e_x, e_y, e_z: e_y along the tangential relative velocity (any perpendicular, in the z = 0 plane when e_x is, if none)."""
+    gt = g - (g @ ex) * ex
+    vt = float(np.linalg.norm(gt))
+    if vt > 1e-14 * float(np.linalg.norm(g)):
+        ey = gt / vt
+    elif abs(ex[2]) < 0.9:
+        ey = np.array([-ex[1], ex[0], 0.0]) / math.hypot(ex[0], ex[1])
+    else:
+        ey = np.array([ex[2], 0.0, -ex[0]]) / math.hypot(ex[0], ex[2])
+    return np.column_stack([ex, ey, np.cross(ex, ey)])
+
+
+def collide_frictional(contact: ContactModel, friction, r1, r2, v1, v2, omega1, omega2, m1, m2, R1, R2, I1=None, I2=None, rtol: float = 1e-10) -> FrictionalCollision:
+    r"""Integrate one frictional contact of two spheres (3D) or disks (2D) touching now (docs/physics.md §4.11).
+
+    The normal law of ``contact`` plus the tangential spring, damping and Coulomb slider of
+    ``friction`` (:class:`~edmd.physics.friction.Friction`), with spins, from first touch until
+    the normal force vanishes: the same equations as the DEM (:mod:`edmd.run.dem`) in continuous
+    time, in the scaled Cartesian form of :mod:`edmd._core.twobody_friction`.
+
+    Args:
+        contact, friction: the laws.
+        r1, r2, v1, v2: positions (touching: ``|r1 - r2| = R1 + R2``, ``r2`` the closest image) and
+            velocities (approaching), 2 or 3 numbers each.
+        omega1, omega2: spins (3 numbers; a disk's: one number, about z).
+        m1, m2, R1, R2: masses and radii; I1, I2: moments of inertia (default solid spheres/disks).
+        rtol: relative tolerance of the integration.
+
+    Example:
+        >>> from edmd.physics.contact import LinearDashpot
+        >>> from edmd.physics.friction import Friction
+        >>> end = collide_frictional(LinearDashpot(k=1e6), Friction(mu=0.5, stiffness=2e6 / 7),
+        ...                          [0, 0, 0], [1, 0, 0], [1, 0.2, 0], [0, 0, 0], [0, 0, 0], [0, 0, 0], 1.0, 1.0, 0.5, 0.5)
+        >>> round(float(end.v2[0]), 4), end.sliding      # the normal motion exchanged, the contact ends sliding
+        (1.0, True)
+    """
+    from .friction import Friction
+
+    if not isinstance(contact, ContactModel):
+        raise ContactError(f"contact must be a LinearDashpot or Hertz model, got {contact!r}")
+    if not isinstance(friction, Friction):
+        raise ContactError(f"friction must be an edmd.Friction, got {friction!r}")
+    a1, d = _vec3("r1", r1)
+    a2, d2 = _vec3("r2", r2)
+    u1, d3 = _vec3("v1", v1)
+    u2, d4 = _vec3("v2", v2)
+    if len({d, d2, d3, d4}) != 1:
+        raise ContactError("r1, r2, v1, v2 must all have the same dimension")
+    w1, w2 = _spin3("omega1", omega1, d), _spin3("omega2", omega2, d)
+    m1, m2 = _positive("mass m1", m1), _positive("mass m2", m2)
+    R1, R2 = _positive("radius R1", R1), _positive("radius R2", R2)
+    q = 0.4 if d == 3 else 0.5
+    I1 = q * m1 * R1 * R1 if I1 is None else _positive("inertia I1", I1)
+    I2 = q * m2 * R2 * R2 if I2 is None else _positive("inertia I2", I2)
+    mu, reff, sigma = pair_constants(m1, m2, R1, R2)
+    rel = a1 - a2
+    dist = float(np.linalg.norm(rel))
+    if abs(dist - sigma) > 1e-9 * sigma:
+        raise ContactError(f"the spheres must touch: |r1 - r2| = {dist!r} but R1 + R2 = {sigma!r}")
+    ex = rel / dist
+    g = u1 - u2
+    v_n = -float(g @ ex)
+    if v_n <= 0.0:
+        raise ContactError("the spheres must approach each other ((r1 - r2).(v1 - v2) < 0)")
+    Q = _collision_frame(ex, g)
+    s = contact.scales(m1, m2, R1, R2, v_n)
+    c = 2.0 * s.damping if contact.code == _c.MODEL_DASHPOT else s.damping
+    code, kt, xt, mu_c = friction.constants(contact)
+    k_scaled = kt * s.t_s**2 / mu * (math.sqrt(reff * s.l_s) if code == 2 else 1.0)
+    prm = np.array([contact.code, c, s.softness, code, k_scaled, xt, mu_c, mu * R1 * R1 / I1, mu * R2 * R2 / I2, sigma / (2 * R1), sigma / (2 * R2)], float)
+    state = np.zeros(_tf.N_STATE)
+    state[_tf.P : _tf.P + 3] = Q.T @ g / v_n
+    state[_tf.U1 : _tf.U1 + 3] = R1 * (Q.T @ w1) / v_n
+    state[_tf.U2 : _tf.U2 + 3] = R2 * (Q.T @ w2) / v_n
+    info = np.zeros(4)
+    ok = _tf.solve_frictional(prm, state, rtol, np.zeros((13, _tf.N_STATE)), np.zeros((3, _tf.N_STATE)), info)
+    if not ok or not np.all(np.isfinite(state)):
+        raise ContactError(f"the frictional contact integration did not finish (v_n = {v_n!r}, friction = {friction!r})")
+    t_c = float(info[_tf.I_TAU]) * s.t_s
+    r_end = Q @ (np.array([1.0, 0.0, 0.0]) + s.softness * state[_tf.Y : _tf.Y + 3]) * sigma
+    g_end = Q @ state[_tf.P : _tf.P + 3] * v_n
+    W = (m1 * u1 + m2 * u2) / (m1 + m2)
+    R0 = (m1 * a1 + m2 * a2) / (m1 + m2) + W * t_c
+    f1, f2 = m2 / (m1 + m2), m1 / (m1 + m2)
+    o1 = Q @ state[_tf.U1 : _tf.U1 + 3] * v_n / R1
+    o2 = Q @ state[_tf.U2 : _tf.U2 + 3] * v_n / R2
+    sliding = int(info[_tf.I_MODE]) == _tf.SLIDE
+    spring = 0.0
+    if not sliding:  # energy of the spring k z^2 / 2 in units of mu v_n^2
+        X = float(state[_tf.Y]) * -1.0  # only for the stiffness of Mindlin; recomputed exactly below
+        ax = np.array([1.0, 0.0, 0.0]) + s.softness * state[_tf.Y : _tf.Y + 3]
+        rho = float(np.linalg.norm(ax))
+        X = -(2.0 * state[_tf.Y] + s.softness * float(state[_tf.Y : _tf.Y + 3] @ state[_tf.Y : _tf.Y + 3])) / (1.0 + rho)
+        kk = k_scaled * (math.sqrt(max(X, 0.0)) if code == 2 else 1.0)
+        spring = 0.5 * kk * float(state[_tf.Z : _tf.Z + 3] @ state[_tf.Z : _tf.Z + 3]) * mu * v_n * v_n
+    cut = slice(0, d)
+    spin = (lambda o: float(o[2])) if d == 2 else (lambda o: o)
+    return FrictionalCollision(
+        t_c=t_c,
+        r1=(R0 + f1 * r_end)[cut],
+        r2=(R0 - f2 * r_end)[cut],
+        v1=(W + f1 * g_end)[cut],
+        v2=(W - f2 * g_end)[cut],
+        omega1=spin(o1),
+        omega2=spin(o2),
+        switches=int(info[_tf.I_SWITCHES]),
+        sliding=sliding,
+        spring_energy=spring,
+    )
+
+
+__all__ = ["FrictionalCollision", "LabUpdate", "Restitution", "collide", "collide_frictional", "lab_frame_update", "model_code", "pair_constants", "solve"]

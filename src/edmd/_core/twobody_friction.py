@@ -1,0 +1,398 @@
+r"""Two-body frictional soft contact: the scaled Cartesian ODE with stick and slip, its DOP853 integration.
+
+docs/physics.md §4.11. Two spheres touch at :math:`\tau = 0` with the inter-centre vector
+:math:`\sigma\hat{\mathbf e}_x`; in the scales of the smooth solver (:math:`\ell_s`,
+:math:`t_s`, :math:`\ell_s/t_s = v_n`, :math:`\Lambda = \ell_s/\sigma`, §4.4) the state is
+
+* :math:`\mathbf y`: the relative position :math:`\mathbf r = \sigma(\hat{\mathbf e}_x + \Lambda\mathbf y)`,
+* :math:`\mathbf p = \dot{\mathbf r}/v_n` (``p = (-1, tan(alpha), 0)`` at the start),
+* :math:`\mathbf u_i = R_i\boldsymbol\omega_i/v_n`, the rim speeds of the two spins,
+* the tangential spring :math:`\mathbf z = \boldsymbol\zeta/\ell_s` while the contact sticks, or the
+  scaled tangential force :math:`\mathbf S = \tilde{\mathbf F}_t` while it slides.
+
+With :math:`\rho = |\hat{\mathbf e}_x + \Lambda\mathbf y|`, :math:`\hat{\mathbf n} = (\hat{\mathbf e}_x + \Lambda\mathbf y)/\rho`, the overlap
+:math:`X = (1-\rho)/\Lambda = -(2y_x + \Lambda|\mathbf y|^2)/(1+\rho)` (no cancellation),
+:math:`X' = -\mathbf p\cdot\hat{\mathbf n}`, the lever factors :math:`f_i = 1 - \lambda_i\Lambda X`
+(:math:`\lambda_i = \sigma/2R_i`: arms :math:`R_i - \xi/2`) and the sliding velocity
+:math:`\tilde{\mathbf v}_t` (tangential part of :math:`\mathbf p - (f_1\mathbf u_1 + f_2\mathbf u_2)\times\hat{\mathbf n}`):
+
+.. math::
+    \mathbf y' = \mathbf p,\quad \mathbf p' = \tilde F_n\hat{\mathbf n} + \tilde{\mathbf F}_t,\quad
+    \mathbf u_i' = -\kappa_if_i\,\hat{\mathbf n}\times\tilde{\mathbf F}_t,\quad
+    \hat{\mathbf n}' = \frac\Lambda\rho\big(\mathbf p - (\mathbf p\cdot\hat{\mathbf n})\hat{\mathbf n}\big)
+
+(:math:`\kappa_i = \mu R_i^2/I_i`). Sticking: :math:`\tilde{\mathbf F}_t = -\tilde k\mathbf z - \tilde\eta\tilde{\mathbf v}_t`,
+:math:`\mathbf z' = \tilde{\mathbf v}_t - (\hat{\mathbf n}'\cdot\mathbf z)\hat{\mathbf n}`, until
+:math:`|\tilde{\mathbf F}_t| = \mu\tilde F_n`. Sliding: :math:`\tilde{\mathbf F}_t = \mu\tilde F_n\hat{\mathbf s}`,
+:math:`\hat{\mathbf s} = \mathbf S/|\mathbf S|`, with the spring held at the Coulomb limit,
+:math:`\mathbf z = -(\tilde{\mathbf F}_t + \tilde\eta\tilde{\mathbf v}_t)/\tilde k`, so the force the spring
+would reach, :math:`\mathbf F^* = -\tilde k\mathbf z - \tilde\eta\tilde{\mathbf v}_t`, changes at
+:math:`\mathbf Q = \tfrac{d}{d\tau}\mathbf F^*` (with :math:`\mathbf z'` of sticking) and
+
+.. math::
+    \mathbf S' = \mu\tilde F_n'\hat{\mathbf s} + \mathbf Q_\perp - (\hat{\mathbf n}'\cdot\mathbf S)\hat{\mathbf n},
+
+:math:`\mathbf Q_\perp` the part of :math:`\mathbf Q` normal to :math:`\hat{\mathbf s}` and :math:`\hat{\mathbf n}`, while
+:math:`\hat{\mathbf s}\cdot\mathbf Q > \mu\tilde F_n'` (the spring would outgrow the limit). This is the
+continuous-time limit of the DEM's spring update (:mod:`edmd._core.dem`, LAMMPS ``pair granular``).
+:math:`\tilde k = \tilde k_t` (linear) or :math:`\tilde k_t\sqrt X` (Mindlin), :math:`\tilde\eta = x_t\,\partial\tilde F_n/\partial X'`.
+The contact ends when :math:`\tilde F_n = 0` (:math:`X + cX' = 0`, §4.3).
+
+Everything is a plain compiled function over scalars and caller-provided scratch arrays.
+"""
+
+import math
+
+from .contact import MODEL_HERTZ
+from .dop853 import A, B, E3, E5, N_STAGES
+from .jit import jit, leaf
+
+#: the packed parameters ``prm`` (float64 array)
+P_MODEL, P_C, P_LAM, P_LAW, P_KT, P_XT, P_MU, P_KAPPA1, P_KAPPA2, P_LAMBDA1, P_LAMBDA2 = range(11)
+N_PARAMS = 11
+#: the state: y, p, u1, u2 and z (sticking) or S (sliding)
+Y, P, U1, U2, Z = 0, 3, 6, 9, 12
+N_STATE = 15
+STICK, SLIDE = 0, 1
+#: what solve_frictional returns in ``info``: duration, switches, final mode, steps
+I_TAU, I_SWITCHES, I_MODE, I_STEPS = range(4)
+
+_SAFETY, _MIN_FACTOR, _MAX_FACTOR = 0.9, 0.2, 10.0
+_MAX_STEP = 0.25
+_MAX_STEPS = 200000
+_MAX_SWITCHES = 10000
+#: a switching function this far below zero at the start of a step means the mode has ended there
+_SWITCH_TOL = 1e-9
+
+
+@leaf
+def _cross(ax, ay, az, bx, by, bz):
+    return ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+
+
+@leaf
+def _normal_law(model, c, X, V):
+    r"""Scaled normal force :math:`\tilde F_n` and its damping coefficient :math:`\partial\tilde F_n/\partial X'` (not clipped)."""
+    if model == MODEL_HERTZ:
+        q = math.sqrt(X) if X > 0.0 else 0.0
+        return q * (X + c * V), q * c
+    return X + c * V, c
+
+
+@leaf
+def _normal_rate(model, c, X, V, A_):
+    r""":math:`d\tilde F_n/d\tau` for :math:`X' = V`, :math:`X'' = A_`."""
+    if model == MODEL_HERTZ:
+        q = math.sqrt(X) if X > 0.0 else 0.0
+        dq = 0.5 * V / q if q > 0.0 else 0.0
+        return dq * (X + c * V) + q * (V + c * A_)
+    return V + c * A_
+
+
+@leaf
+def _spring(law, kt, X, V):
+    r"""Scaled spring stiffness :math:`\tilde k` and its rate over itself :math:`\tilde k'/\tilde k`."""
+    if law == 2:
+        q = math.sqrt(X) if X > 0.0 else 0.0
+        return kt * q, (0.5 * V / X if X > 0.0 else 0.0)
+    return kt, 0.0
+
+
+@jit
+def rhs(prm, mode, s, ds):
+    """Derivatives of the state ``s`` (mode ``STICK`` or ``SLIDE``) into ``ds``.
+
+    Returns ``(g_end, g_switch)``: :math:`X + cX'` (the contact ends at its root) and the
+    switching function, positive while the mode holds, scaled into ``[-1, 1]`` (sticking:
+    :math:`(\\mu\\tilde F_n - |\\mathbf F^*|)/(\\mu\\tilde F_n + |\\mathbf F^*|)`; sliding:
+    :math:`(\\hat{\\mathbf s}\\cdot\\mathbf Q - \\mu\\tilde F_n')/(|\\hat{\\mathbf s}\\cdot\\mathbf Q| + \\mu|\\tilde F_n'|)`).
+    """
+    model = int(prm[P_MODEL])
+    c, lam, mu = prm[P_C], prm[P_LAM], prm[P_MU]
+    yx, yy, yz = s[Y], s[Y + 1], s[Y + 2]
+    px, py, pz = s[P], s[P + 1], s[P + 2]
+    ax, ay, az = 1.0 + lam * yx, lam * yy, lam * yz
+    rho = math.sqrt(ax * ax + ay * ay + az * az)
+    nx, ny, nz = ax / rho, ay / rho, az / rho
+    X = -(2.0 * yx + lam * (yx * yx + yy * yy + yz * yz)) / (1.0 + rho)
+    pn = px * nx + py * ny + pz * nz
+    V = -pn
+    fn, eta_n = _normal_law(model, c, X, V)
+    g_end = X + c * V
+    # n' (scaled)
+    k = lam / rho
+    dnx, dny, dnz = k * (px - pn * nx), k * (py - pn * ny), k * (pz - pn * nz)
+    # lever factors and the rim speed of the pair W = f1 u1 + f2 u2
+    f1 = 1.0 - prm[P_LAMBDA1] * lam * X
+    f2 = 1.0 - prm[P_LAMBDA2] * lam * X
+    wx = f1 * s[U1] + f2 * s[U2]
+    wy = f1 * s[U1 + 1] + f2 * s[U2 + 1]
+    wz = f1 * s[U1 + 2] + f2 * s[U2 + 2]
+    cx, cy, cz = _cross(wx, wy, wz, nx, ny, nz)
+    vcx, vcy, vcz = px - cx, py - cy, pz - cz
+    vcn = vcx * nx + vcy * ny + vcz * nz
+    vx, vy, vz = vcx - vcn * nx, vcy - vcn * ny, vcz - vcn * nz
+    law = int(prm[P_LAW])
+    kk, krate = _spring(law, prm[P_KT], X, V)
+    eta = prm[P_XT] * eta_n
+    zx, zy, zz = s[Z], s[Z + 1], s[Z + 2]
+    sx, sy, sz = 0.0, 0.0, 0.0
+    if mode == STICK:
+        ftx, fty, ftz = -kk * zx - eta * vx, -kk * zy - eta * vy, -kk * zz - eta * vz
+        ft = math.sqrt(ftx * ftx + fty * fty + ftz * ftz)
+        lim = mu * fn
+        g_switch = (lim - ft) / (lim + ft) if lim + ft > 0.0 and mu < math.inf else 1.0
+    else:
+        sm = math.sqrt(zx * zx + zy * zy + zz * zz)
+        if sm > 0.0:
+            sx, sy, sz = zx / sm, zy / sm, zz / sm
+        lim = mu * fn
+        ftx, fty, ftz = lim * sx, lim * sy, lim * sz
+    # translational and rotational accelerations
+    dpx, dpy, dpz = fn * nx + ftx, fn * ny + fty, fn * nz + ftz
+    tx, ty, tz = _cross(nx, ny, nz, ftx, fty, ftz)
+    k1, k2 = prm[P_KAPPA1] * f1, prm[P_KAPPA2] * f2
+    ds[Y], ds[Y + 1], ds[Y + 2] = px, py, pz
+    ds[P], ds[P + 1], ds[P + 2] = dpx, dpy, dpz
+    ds[U1], ds[U1 + 1], ds[U1 + 2] = -k1 * tx, -k1 * ty, -k1 * tz
+    ds[U2], ds[U2 + 1], ds[U2 + 2] = -k2 * tx, -k2 * ty, -k2 * tz
+    if mode == STICK:
+        zn = dnx * zx + dny * zy + dnz * zz
+        ds[Z], ds[Z + 1], ds[Z + 2] = vx - zn * nx, vy - zn * ny, vz - zn * nz
+        return g_end, g_switch
+    # sliding: the rate Q of the spring's trial force, with z held at the Coulomb limit
+    A_ = -(dpx * nx + dpy * ny + dpz * nz) - (px * dnx + py * dny + pz * dnz)  # X''
+    dfn = _normal_rate(model, c, X, V, A_)
+    deta = prm[P_XT] * (0.5 * c * V / math.sqrt(X) if model == MODEL_HERTZ and X > 0.0 else 0.0)
+    # v_t' from p', u_i', f_i' and n'
+    df = -lam * V
+    dwx = prm[P_LAMBDA1] * df * s[U1] + f1 * ds[U1] + prm[P_LAMBDA2] * df * s[U2] + f2 * ds[U2]
+    dwy = prm[P_LAMBDA1] * df * s[U1 + 1] + f1 * ds[U1 + 1] + prm[P_LAMBDA2] * df * s[U2 + 1] + f2 * ds[U2 + 1]
+    dwz = prm[P_LAMBDA1] * df * s[U1 + 2] + f1 * ds[U1 + 2] + prm[P_LAMBDA2] * df * s[U2 + 2] + f2 * ds[U2 + 2]
+    ax1, ay1, az1 = _cross(dwx, dwy, dwz, nx, ny, nz)
+    ax2, ay2, az2 = _cross(wx, wy, wz, dnx, dny, dnz)
+    dvcx, dvcy, dvcz = dpx - ax1 - ax2, dpy - ay1 - ay2, dpz - az1 - az2
+    dvcn = dvcx * nx + dvcy * ny + dvcz * nz + vcx * dnx + vcy * dny + vcz * dnz
+    dvx = dvcx - dvcn * nx - vcn * dnx
+    dvy = dvcy - dvcn * ny - vcn * dny
+    dvz = dvcz - dvcn * nz - vcn * dnz
+    # Q = -k' z - k z' - eta' v - eta v', z = -(F_t + eta v) / k, z' = v (tangential parts)
+    qx = krate * (ftx + eta * vx) - kk * vx - deta * vx - eta * dvx
+    qy = krate * (fty + eta * vy) - kk * vy - deta * vy - eta * dvy
+    qz = krate * (ftz + eta * vz) - kk * vz - deta * vz - eta * dvz
+    qn = qx * nx + qy * ny + qz * nz
+    qx, qy, qz = qx - qn * nx, qy - qn * ny, qz - qn * nz
+    if sx == 0.0 and sy == 0.0 and sz == 0.0:  # S = 0 (no normal force yet): it grows along Q
+        qm = math.sqrt(qx * qx + qy * qy + qz * qz)
+        if qm > 0.0:
+            sx, sy, sz = qx / qm, qy / qm, qz / qm
+    qs = qx * sx + qy * sy + qz * sz
+    dl = mu * dfn
+    scale = abs(qs) + abs(dl)
+    g_switch = (qs - dl) / scale if scale > 0.0 else 1.0
+    sn = dnx * zx + dny * zy + dnz * zz
+    ds[Z] = dl * sx + (qx - qs * sx) - sn * nx
+    ds[Z + 1] = dl * sy + (qy - qs * sy) - sn * ny
+    ds[Z + 2] = dl * sz + (qz - qs * sz) - sn * nz
+    return g_end, g_switch
+
+
+@leaf
+def _step(prm, mode, x0, h, K, xs, x1, rtol, atol):
+    """One DOP853 step of size ``h`` from ``x0`` (``K[0]`` = its derivatives) into ``x1``.
+
+    Fills ``K[1:13]`` (``K[12]`` = derivatives at ``x1``) and returns ``(err, g_end, g_switch)``
+    at ``x1``: the scaled error norm of Hairer's 5(3) estimator and the two event functions.
+    """
+    n = x0.shape[0]
+    for st in range(1, N_STAGES):
+        for q in range(n):
+            acc = 0.0
+            for j in range(st):
+                acc += A[st, j] * K[j, q]
+            xs[q] = x0[q] + h * acc
+        rhs(prm, mode, xs, K[st])
+    for q in range(n):
+        acc = 0.0
+        for j in range(N_STAGES):
+            acc += B[j] * K[j, q]
+        x1[q] = x0[q] + h * acc
+    g_end, g_sw = rhs(prm, mode, x1, K[12])
+    e5 = 0.0
+    e3 = 0.0
+    for q in range(n):
+        scale = atol + rtol * max(abs(x0[q]), abs(x1[q]))
+        a5 = 0.0
+        a3 = 0.0
+        for j in range(N_STAGES):
+            a5 += E5[j] * K[j, q]
+            a3 += E3[j] * K[j, q]
+        a5 /= scale
+        a3 /= scale
+        e5 += a5 * a5
+        e3 += a3 * a3
+    err = 0.0
+    if e5 > 0.0 or e3 > 0.0:
+        err = abs(h) * e5 / math.sqrt((e5 + 0.01 * e3) * n)
+    return err, g_end, g_sw
+
+
+@leaf
+def _root(prm, mode, x0, h, g0, g1, which, K, xs, x1, rtol, atol):
+    """Step size in ``(0, h]`` at which event function ``which`` (0: end, 1: switch) crosses zero.
+
+    Illinois-modified regula falsi on full DOP853 steps from ``x0`` (``g0 > 0 >= g1``). Returns
+    ``(s, g_end, g_switch)`` at the root (the smallest size found on the far side); ``x1`` and
+    ``K[12]`` hold the state and derivatives there.
+    """
+    lo, hi, glo, ghi = 0.0, h, g0, g1
+    side = 0
+    s = h
+    for _ in range(200):
+        s = hi - ghi * (hi - lo) / (ghi - glo)
+        if not (lo < s < hi):
+            s = 0.5 * (lo + hi)
+        _err, ge, gs = _step(prm, mode, x0, s, K, xs, x1, rtol, atol)
+        gv = ge if which == 0 else gs
+        if gv > 0.0:
+            lo, glo = s, gv
+            if side == 1:
+                ghi *= 0.5
+            side = 1
+        else:
+            hi, ghi = s, gv
+            if side == -1:
+                glo *= 0.5
+            side = -1
+        if hi - lo <= 4e-16 * hi:
+            break
+    if s != hi:
+        _err, ge, gs = _step(prm, mode, x0, hi, K, xs, x1, rtol, atol)
+    return hi, ge, gs
+
+
+@leaf
+def _switch(prm, mode, s):
+    """Change the mode at a switching point: sticking -> sliding keeps the trial force as ``S``,
+    sliding -> sticking sets the spring to the Coulomb limit. Returns the new mode."""
+    model = int(prm[P_MODEL])
+    lam = prm[P_LAM]
+    yx, yy, yz = s[Y], s[Y + 1], s[Y + 2]
+    ax, ay, az = 1.0 + lam * yx, lam * yy, lam * yz
+    rho = math.sqrt(ax * ax + ay * ay + az * az)
+    nx, ny, nz = ax / rho, ay / rho, az / rho
+    X = -(2.0 * yx + lam * (yx * yx + yy * yy + yz * yz)) / (1.0 + rho)
+    V = -(s[P] * nx + s[P + 1] * ny + s[P + 2] * nz)
+    fn, eta_n = _normal_law(model, prm[P_C], X, V)
+    f1 = 1.0 - prm[P_LAMBDA1] * lam * X
+    f2 = 1.0 - prm[P_LAMBDA2] * lam * X
+    wx = f1 * s[U1] + f2 * s[U2]
+    wy = f1 * s[U1 + 1] + f2 * s[U2 + 1]
+    wz = f1 * s[U1 + 2] + f2 * s[U2 + 2]
+    cx, cy, cz = _cross(wx, wy, wz, nx, ny, nz)
+    vcx, vcy, vcz = s[P] - cx, s[P + 1] - cy, s[P + 2] - cz
+    vcn = vcx * nx + vcy * ny + vcz * nz
+    vx, vy, vz = vcx - vcn * nx, vcy - vcn * ny, vcz - vcn * nz
+    kk, _kr = _spring(int(prm[P_LAW]), prm[P_KT], X, V)
+    eta = prm[P_XT] * eta_n
+    if mode == STICK:
+        for q, v in ((0, vx), (1, vy), (2, vz)):
+            s[Z + q] = -kk * s[Z + q] - eta * v
+        return SLIDE
+    sm = math.sqrt(s[Z] ** 2 + s[Z + 1] ** 2 + s[Z + 2] ** 2)
+    lim = prm[P_MU] * fn
+    for q, v in ((0, vx), (1, vy), (2, vz)):
+        ft = lim * s[Z + q] / sm if sm > 0.0 else 0.0
+        s[Z + q] = -(ft + eta * v) / kk if kk > 0.0 else 0.0
+    return STICK
+
+
+@leaf
+def _start_mode(prm, s, K, xs):
+    """Sticking or sliding at first contact, and the initial ``S`` when sliding.
+
+    The trial force is compared with the Coulomb limit a moment (``1e-9``) after the start, in a
+    state advanced to first order; sliding starts with :math:`\\mathbf S = \\mu\\tilde F_n(0)\\hat{\\mathbf s}`
+    along that trial force (zero for Hertz, where it then grows along :math:`\\mathbf Q`).
+    """
+    eps = 1e-9
+    for q in range(N_STATE):
+        xs[q] = s[q]
+    for q in range(3):
+        xs[Y + q] = eps * s[P + q]
+    rhs(prm, STICK, xs, K[0])  # dz/dtau at the start: the sliding velocity
+    for q in range(3):
+        xs[Z + q] = eps * K[0, Z + q]
+    _ge, g_sw = rhs(prm, STICK, xs, K[1])
+    if g_sw >= 0.0:
+        return STICK
+    _switch(prm, STICK, xs)  # xs[Z:] = the trial force
+    fm = math.sqrt(xs[Z] ** 2 + xs[Z + 1] ** 2 + xs[Z + 2] ** 2)
+    model = int(prm[P_MODEL])
+    fn0 = 0.0 if model == MODEL_HERTZ else prm[P_C]  # F_n at X = 0, X' = 1
+    for q in range(3):
+        s[Z + q] = prm[P_MU] * fn0 * xs[Z + q] / fm
+    return SLIDE
+
+
+@jit
+def solve_frictional(prm, s, rtol, K, W, info):
+    """Integrate one frictional contact from first touch (``s``: the initial state, ``z = 0``) to its end.
+
+    Adaptive DOP853 at relative tolerance ``rtol``; the end (:math:`\\tilde F_n = 0`) and every
+    stick/slip switch are located to round-off by regula falsi on full steps (docs/physics.md
+    §4.11). ``s`` is overwritten with the final state (sliding: ``s[Z:]`` the scaled tangential
+    force). ``K``: ``(13, 15)`` scratch, ``W``: ``(3, 15)`` scratch. ``info`` receives the scaled
+    duration, the number of switches, the final mode and the number of steps. Returns ``False``
+    if the integration failed (too many steps or switches).
+    """
+    atol = 1e-3 * rtol
+    xs, x1, x0 = W[0], W[1], W[2]
+    mode = _start_mode(prm, s, K, xs)
+    t = 0.0
+    switches = 0
+    g_end, g_sw = rhs(prm, mode, s, K[0])
+    h = 0.05 * rtol**0.125 if int(prm[P_MODEL]) == MODEL_HERTZ else 0.1 * rtol**0.125
+    c = prm[P_C]
+    for step in range(_MAX_STEPS):
+        if g_sw < -_SWITCH_TOL:  # the mode does not hold from here on (e.g. a slide that sticks at once)
+            mode = _switch(prm, mode, s)
+            switches += 1
+            if switches > _MAX_SWITCHES:
+                return False
+            g_end, g_sw = rhs(prm, mode, s, K[0])
+        h = min(h, _MAX_STEP)
+        for q in range(N_STATE):
+            x0[q] = s[q]
+        err, ge1, gs1 = _step(prm, mode, x0, h, K, xs, x1, rtol, atol)
+        if err > 1.0:
+            h *= max(_MIN_FACTOR, _SAFETY * err**-0.125)
+            continue
+        h_next = h * (_MAX_FACTOR if err == 0.0 else min(_MAX_FACTOR, _SAFETY * err**-0.125))
+        ends = ge1 <= 0.0 and (g_end > 0.0 or t > 0.0 or c == 0.0)
+        flips = gs1 < 0.0
+        if ends:  # where does the force vanish, and does the mode hold until then?
+            h, ge1, gs1 = _root(prm, mode, x0, h, max(g_end, 1e-300), ge1, 0, K, xs, x1, rtol, atol)
+            flips = gs1 < 0.0
+            if not flips:
+                for q in range(N_STATE):
+                    s[q] = x1[q]
+                info[I_TAU], info[I_SWITCHES], info[I_MODE], info[I_STEPS] = t + h, switches, mode, step + 1
+                return True
+        if flips:  # the switch, then the other mode from there
+            h, ge1, gs1 = _root(prm, mode, x0, h, max(g_sw, 1e-300), gs1, 1, K, xs, x1, rtol, atol)
+        t += h
+        for q in range(N_STATE):
+            s[q] = x1[q]
+        if flips:
+            mode = _switch(prm, mode, s)
+            switches += 1
+            if switches > _MAX_SWITCHES:
+                return False
+            g_end, g_sw = rhs(prm, mode, s, K[0])
+        else:
+            g_end, g_sw = ge1, gs1
+            for q in range(N_STATE):
+                K[0, q] = K[12, q]
+        h = h_next
+    return False
