@@ -160,6 +160,9 @@ def rhs(prm, mode, s, ds):
         zn = dnx * zx + dny * zy + dnz * zz
         ds[Z], ds[Z + 1], ds[Z + 2] = vx - zn * nx, vy - zn * ny, vz - zn * nz
         return g_end, g_switch
+    if mu == 0.0:  # smooth: no tangential force, nothing to follow
+        ds[Z], ds[Z + 1], ds[Z + 2] = 0.0, 0.0, 0.0
+        return g_end, 1.0
     # sliding: the rate Q of the spring's trial force, with z held at the Coulomb limit
     A_ = -(dpx * nx + dpy * ny + dpz * nz) - (px * dnx + py * dny + pz * dnz)  # X''
     dfn = _normal_rate(model, c, X, V, A_)
@@ -315,6 +318,8 @@ def _start_mode(prm, s, K, xs):
     state advanced to first order; sliding starts with :math:`\\mathbf S = \\mu\\tilde F_n(0)\\hat{\\mathbf s}`
     along that trial force (zero for Hertz, where it then grows along :math:`\\mathbf Q`).
     """
+    if prm[P_MU] == 0.0:  # smooth: no tangential force at all
+        return SLIDE
     eps = 1e-9
     for q in range(N_STATE):
         xs[q] = s[q]

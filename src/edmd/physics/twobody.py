@@ -342,7 +342,11 @@ def collide_frictional(contact: ContactModel, friction, r1, r2, v1, v2, omega1, 
     info = np.zeros(4)
     ok = _tf.solve_frictional(prm, state, rtol, np.zeros((13, _tf.N_STATE)), np.zeros((3, _tf.N_STATE)), info)
     if not ok or not np.all(np.isfinite(state)):
-        raise ContactError(f"the frictional contact integration did not finish (v_n = {v_n!r}, friction = {friction!r})")
+        why = ""
+        if code == 2 and xt > 0.0:
+            why = ("; Mindlin's stiffness vanishes at the touch, so while the tangential damping force exceeds the Coulomb "
+                   "limit the spring held at that limit would need an infinite extension: use damping = 0 with Mindlin")  # fmt: skip
+        raise ContactError(f"the frictional contact integration did not finish (v_n = {v_n!r}, friction = {friction!r}){why}")
     t_c = float(info[_tf.I_TAU]) * s.t_s
     r_end = Q @ (np.array([1.0, 0.0, 0.0]) + s.softness * state[_tf.Y : _tf.Y + 3]) * sigma
     g_end = Q @ state[_tf.P : _tf.P + 3] * v_n
