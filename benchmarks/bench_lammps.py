@@ -13,12 +13,16 @@ default: the shortest contact / 50) and the same force law:
   frictionless (``tangential linear_nohistory 0 0``).
 
 The mapping is checked by a head-on collision (restitution from LAMMPS vs edmd's solver), the
-gas by its kinetic energy after the run. Reported: steps per second and particle-steps per
+gas by its kinetic energy after the run. ``--friction`` instead runs an oblique collision with
+spins and friction (``tangential linear_history`` with Hooke, ``mindlin`` with Hertz; see
+:func:`friction_pairs`) in both codes at several time steps, against the exact end of the contact from edmd's
+frictional two-body solver. Reported: steps per second and particle-steps per
 second of both on one core (LAMMPS serial, ``OMP_NUM_THREADS=1``), ``results/lammps.json``.
 
 Usage::
 
     python benchmarks/bench_lammps.py --n 4000 32000 --eta 0.05 --steps 2000
+    python benchmarks/bench_lammps.py --friction --out benchmarks/results/lammps_friction.json
 """
 
 from __future__ import annotations
@@ -136,29 +140,37 @@ def oblique_edmd(contact, friction, dt: float, steps: int) -> np.ndarray:
     return np.hstack([end.velocity, end.angular_velocity])
 
 
-def oblique_check(lmp: str, divisions=(50, 200, 800)) -> list[dict]:
-    """The oblique frictional collision in both codes at several time steps (per contact duration).
+def oblique_exact(contact, friction) -> np.ndarray:
+    """End velocities and spins ``(2, 6)`` of :data:`OBLIQUE` from edmd's frictional two-body solver (exact)."""
+    from edmd.physics.twobody import collide_frictional
 
-    Both are also compared with edmd at 4x the finest resolution (the reference): each code's
-    error at a step size, and the difference of the two, which must shrink with the step.
-    """
+    x, v, w = (np.array([a[k] for a in OBLIQUE], float) for k in range(3))
+    d, g = x[0] - x[1], v[0] - v[1]
+    a_, b_, c_ = g @ g, d @ g, d @ d - 1.0
+    t0 = (-b_ - math.sqrt(b_ * b_ - a_ * c_)) / a_  # the touch
+    end = collide_frictional(contact, friction, x[0] + v[0] * t0, x[1] + v[1] * t0, v[0], v[1], w[0], w[1], 1.0, 1.0, 0.5, 0.5, rtol=1e-12)
+    return np.array([np.r_[end.v1, end.omega1], np.r_[end.v2, end.omega2]])
+
+
+def oblique_check(lmp: str, divisions=(50, 200, 800)) -> list[dict]:
+    """The oblique frictional collision in both codes' DEM at several time steps (per contact
+    duration), each against the exact end of the contact from edmd's frictional two-body solver."""
     out = []
     for case in ("dashpot", "mindlin"):
         contact, friction, pair = friction_pairs(case)
         t_c = contact.central(1.0, 1.0, 0.5, 0.5, 1.0).t_c
         span = 0.02 + 2.0 * t_c  # gap 0.01 closed at speed 1, then the contact and some flight
-        ref_dt = t_c / (4 * max(divisions))
-        ref = oblique_edmd(contact, friction, ref_dt, int(math.ceil(span / ref_dt)))
+        ref = oblique_exact(contact, friction)
         for div in divisions:
             steps = int(math.ceil(span / (t_c / div)))
-            dt = span / steps  # both codes end at the same time as the reference
+            dt = span / steps
             a = _run_two_spheres(lmp, pair, dt, steps, OBLIQUE)
             b = oblique_edmd(contact, friction, dt, steps)
-            err = {"lammps_vs_edmd": float(np.abs(a - b).max()), "lammps_vs_reference": float(np.abs(a - ref).max()), "edmd_vs_reference": float(np.abs(b - ref).max())}
-            out.append({"law": case, "steps_per_contact": div, "dt": dt, "lammps": a.tolist(), "edmd": b.tolist(), "reference": ref.tolist(), **err})
+            err = {"lammps_vs_edmd": float(np.abs(a - b).max()), "lammps_vs_exact": float(np.abs(a - ref).max()), "edmd_vs_exact": float(np.abs(b - ref).max())}
+            out.append({"law": case, "steps_per_contact": div, "dt": dt, "lammps": a.tolist(), "edmd": b.tolist(), "exact": ref.tolist(), **err})
             print(
                 f"oblique {case:8s} {div:4d} steps/contact, max over v and omega: |LAMMPS - edmd| {err['lammps_vs_edmd']:.2e}, "
-                f"|LAMMPS - ref| {err['lammps_vs_reference']:.2e}, |edmd - ref| {err['edmd_vs_reference']:.2e}"
+                f"|LAMMPS - exact| {err['lammps_vs_exact']:.2e}, |edmd DEM - exact| {err['edmd_vs_exact']:.2e}"
             )
     return out
 
@@ -213,9 +225,12 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--lmp", default=shutil.which("lmp") or "lmp")
     ap.add_argument("--out", default=str(Path(__file__).with_name("results") / "lammps.json"))
+    ap.add_argument("--friction", action="store_true", help="only the oblique frictional collision with spin, at several time steps")
     args = ap.parse_args(argv)
     if shutil.which(args.lmp) is None:
         raise SystemExit(f"no LAMMPS executable {args.lmp!r} (Debian: apt-get install lammps); nothing to compare")
+    if args.friction:
+        return write_results(args.out, args, oblique_check(args.lmp))
     contact = Hertz(young=1e5, poisson=0.3, A=1e-4)
     e_lmp = head_on_restitution(args.lmp, contact, 1.0)
     e_edmd = contact.central(1.0, 1.0, 0.5, 0.5, 1.0).e_n
