@@ -8,7 +8,11 @@ Springer (1993), Sec. II.10; the numbers are those of Hairer's ``dop853.f`` (als
 derivative at the new point and is zero).
 """
 
+import math
+
 import numpy as np
+
+from .jit import leaf
 
 N_STAGES = 12
 
@@ -78,3 +82,22 @@ E3 = np.array([-0.18980075407240762,  0.                 ,  0.                 ,
   0.                 ,  4.450312892752409  ,  1.8915178993145003 , -5.801203960010585  ,
  -0.4226823213237919 , -0.1521609496625161 ,  0.20136540080403034,  0.02265179219836082,
   0.                 ])
+
+
+@leaf
+def error_terms(K, comp, scale):
+    """The 5th- and 3rd-order error estimates of component ``comp`` of a step, over ``scale``."""
+    a5 = 0.0
+    a3 = 0.0
+    for j in range(N_STAGES):
+        a5 += E5[j] * K[j, comp]
+        a3 += E3[j] * K[j, comp]
+    return a5 / scale, a3 / scale
+
+
+@leaf
+def error_norm(e5, e3, h, n):
+    """Hairer's scaled error norm of a step of size ``h`` from the summed squares of the two estimates over ``n`` components."""
+    if e5 > 0.0 or e3 > 0.0:
+        return abs(h) * e5 / math.sqrt((e5 + 0.01 * e3) * n)
+    return 0.0

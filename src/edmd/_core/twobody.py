@@ -21,7 +21,7 @@ the 13 x 3 stage buffer ``K`` comes from the caller).
 import math
 
 from .contact import MODEL_HERTZ
-from .dop853 import A, B, E3, E5, N_STAGES
+from .dop853 import A, B, N_STAGES, error_norm, error_terms
 from .jit import jit, leaf
 
 #: step-size control of the embedded DOP853 pair (the values of Hairer's code and scipy)
@@ -81,19 +81,10 @@ def _step(model, c, lam, cen, x0, v0, p0, h, K, rtol, atol):
     for comp in range(3):
         y0 = x0 if comp == 0 else (v0 if comp == 1 else p0)
         y1 = x1 if comp == 0 else (v1 if comp == 1 else p1)
-        scale = atol + rtol * max(abs(y0), abs(y1))
-        a5 = 0.0
-        a3 = 0.0
-        for j in range(N_STAGES):
-            a5 += E5[j] * K[j, comp]
-            a3 += E3[j] * K[j, comp]
-        a5 /= scale
-        a3 /= scale
+        a5, a3 = error_terms(K, comp, atol + rtol * max(abs(y0), abs(y1)))
         e5 += a5 * a5
         e3 += a3 * a3
-    err = 0.0
-    if e5 > 0.0 or e3 > 0.0:
-        err = abs(h) * e5 / math.sqrt((e5 + 0.01 * e3) * 3.0)
+    err = error_norm(e5, e3, h, 3.0)
     return x1, v1, p1, err
 
 

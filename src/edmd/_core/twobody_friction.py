@@ -44,7 +44,7 @@ Everything is a plain compiled function over scalars and caller-provided scratch
 import math
 
 from .contact import MODEL_HERTZ
-from .dop853 import A, B, E3, E5, N_STAGES
+from .dop853 import A, B, N_STAGES, error_norm, error_terms
 from .jit import jit, leaf
 
 #: the packed parameters ``prm`` (float64 array)
@@ -98,6 +98,32 @@ def _spring(law, kt, X, V):
     return kt, 0.0
 
 
+@leaf
+def _kinematics(prm, s):
+    """Geometry, normal force and sliding velocity of state ``s``: ``(n, rho, X, X', F_n, eta_t,
+    f1, f2, W, v_c, v_c.n, v_t, k, k'/k)`` (vectors as three numbers)."""
+    lam = prm[P_LAM]
+    yx, yy, yz = s[Y], s[Y + 1], s[Y + 2]
+    ax, ay, az = 1.0 + lam * yx, lam * yy, lam * yz
+    rho = math.sqrt(ax * ax + ay * ay + az * az)
+    nx, ny, nz = ax / rho, ay / rho, az / rho
+    X = -(2.0 * yx + lam * (yx * yx + yy * yy + yz * yz)) / (1.0 + rho)
+    V = -(s[P] * nx + s[P + 1] * ny + s[P + 2] * nz)
+    fn, eta_n = _normal_law(int(prm[P_MODEL]), prm[P_C], X, V)
+    # lever factors and the rim speed of the pair W = f1 u1 + f2 u2
+    f1 = 1.0 - prm[P_LAMBDA1] * lam * X
+    f2 = 1.0 - prm[P_LAMBDA2] * lam * X
+    wx = f1 * s[U1] + f2 * s[U2]
+    wy = f1 * s[U1 + 1] + f2 * s[U2 + 1]
+    wz = f1 * s[U1 + 2] + f2 * s[U2 + 2]
+    cx, cy, cz = _cross(wx, wy, wz, nx, ny, nz)
+    vcx, vcy, vcz = s[P] - cx, s[P + 1] - cy, s[P + 2] - cz
+    vcn = vcx * nx + vcy * ny + vcz * nz
+    kk, krate = _spring(int(prm[P_LAW]), prm[P_KT], X, V)
+    return (nx, ny, nz, rho, X, V, fn, prm[P_XT] * eta_n, f1, f2, wx, wy, wz, vcx, vcy, vcz, vcn,
+            vcx - vcn * nx, vcy - vcn * ny, vcz - vcn * nz, kk, krate)  # fmt: skip
+
+
 @jit
 def rhs(prm, mode, s, ds):
     """Derivatives of the state ``s`` (mode ``STICK`` or ``SLIDE``) into ``ds``.
@@ -109,32 +135,13 @@ def rhs(prm, mode, s, ds):
     """
     model = int(prm[P_MODEL])
     c, lam, mu = prm[P_C], prm[P_LAM], prm[P_MU]
-    yx, yy, yz = s[Y], s[Y + 1], s[Y + 2]
     px, py, pz = s[P], s[P + 1], s[P + 2]
-    ax, ay, az = 1.0 + lam * yx, lam * yy, lam * yz
-    rho = math.sqrt(ax * ax + ay * ay + az * az)
-    nx, ny, nz = ax / rho, ay / rho, az / rho
-    X = -(2.0 * yx + lam * (yx * yx + yy * yy + yz * yz)) / (1.0 + rho)
-    pn = px * nx + py * ny + pz * nz
-    V = -pn
-    fn, eta_n = _normal_law(model, c, X, V)
+    nx, ny, nz, rho, X, V, fn, eta, f1, f2, wx, wy, wz, vcx, vcy, vcz, vcn, vx, vy, vz, kk, krate = _kinematics(prm, s)
+    pn = -V
     g_end = X + c * V
     # n' (scaled)
     k = lam / rho
     dnx, dny, dnz = k * (px - pn * nx), k * (py - pn * ny), k * (pz - pn * nz)
-    # lever factors and the rim speed of the pair W = f1 u1 + f2 u2
-    f1 = 1.0 - prm[P_LAMBDA1] * lam * X
-    f2 = 1.0 - prm[P_LAMBDA2] * lam * X
-    wx = f1 * s[U1] + f2 * s[U2]
-    wy = f1 * s[U1 + 1] + f2 * s[U2 + 1]
-    wz = f1 * s[U1 + 2] + f2 * s[U2 + 2]
-    cx, cy, cz = _cross(wx, wy, wz, nx, ny, nz)
-    vcx, vcy, vcz = px - cx, py - cy, pz - cz
-    vcn = vcx * nx + vcy * ny + vcz * nz
-    vx, vy, vz = vcx - vcn * nx, vcy - vcn * ny, vcz - vcn * nz
-    law = int(prm[P_LAW])
-    kk, krate = _spring(law, prm[P_KT], X, V)
-    eta = prm[P_XT] * eta_n
     zx, zy, zz = s[Z], s[Z + 1], s[Z + 2]
     sx, sy, sz = 0.0, 0.0, 0.0
     if mode == STICK:
@@ -224,20 +231,10 @@ def _step(prm, mode, x0, h, K, xs, x1, rtol, atol):
     e5 = 0.0
     e3 = 0.0
     for q in range(n):
-        scale = atol + rtol * max(abs(x0[q]), abs(x1[q]))
-        a5 = 0.0
-        a3 = 0.0
-        for j in range(N_STAGES):
-            a5 += E5[j] * K[j, q]
-            a3 += E3[j] * K[j, q]
-        a5 /= scale
-        a3 /= scale
+        a5, a3 = error_terms(K, q, atol + rtol * max(abs(x0[q]), abs(x1[q])))
         e5 += a5 * a5
         e3 += a3 * a3
-    err = 0.0
-    if e5 > 0.0 or e3 > 0.0:
-        err = abs(h) * e5 / math.sqrt((e5 + 0.01 * e3) * n)
-    return err, g_end, g_sw
+    return error_norm(e5, e3, h, n), g_end, g_sw
 
 
 @leaf
@@ -278,26 +275,7 @@ def _root(prm, mode, x0, h, g0, g1, which, K, xs, x1, rtol, atol):
 def _switch(prm, mode, s):
     """Change the mode at a switching point: sticking -> sliding keeps the trial force as ``S``,
     sliding -> sticking sets the spring to the Coulomb limit. Returns the new mode."""
-    model = int(prm[P_MODEL])
-    lam = prm[P_LAM]
-    yx, yy, yz = s[Y], s[Y + 1], s[Y + 2]
-    ax, ay, az = 1.0 + lam * yx, lam * yy, lam * yz
-    rho = math.sqrt(ax * ax + ay * ay + az * az)
-    nx, ny, nz = ax / rho, ay / rho, az / rho
-    X = -(2.0 * yx + lam * (yx * yx + yy * yy + yz * yz)) / (1.0 + rho)
-    V = -(s[P] * nx + s[P + 1] * ny + s[P + 2] * nz)
-    fn, eta_n = _normal_law(model, prm[P_C], X, V)
-    f1 = 1.0 - prm[P_LAMBDA1] * lam * X
-    f2 = 1.0 - prm[P_LAMBDA2] * lam * X
-    wx = f1 * s[U1] + f2 * s[U2]
-    wy = f1 * s[U1 + 1] + f2 * s[U2 + 1]
-    wz = f1 * s[U1 + 2] + f2 * s[U2 + 2]
-    cx, cy, cz = _cross(wx, wy, wz, nx, ny, nz)
-    vcx, vcy, vcz = s[P] - cx, s[P + 1] - cy, s[P + 2] - cz
-    vcn = vcx * nx + vcy * ny + vcz * nz
-    vx, vy, vz = vcx - vcn * nx, vcy - vcn * ny, vcz - vcn * nz
-    kk, _kr = _spring(int(prm[P_LAW]), prm[P_KT], X, V)
-    eta = prm[P_XT] * eta_n
+    _n0, _n1, _n2, _r, _X, _V, fn, eta, _f1, _f2, _w0, _w1, _w2, _c0, _c1, _c2, _cn, vx, vy, vz, kk, _kr = _kinematics(prm, s)
     if mode == STICK:
         for q, v in ((0, vx), (1, vy), (2, vz)):
             s[Z + q] = -kk * s[Z + q] - eta * v

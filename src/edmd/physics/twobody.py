@@ -187,6 +187,14 @@ def _vec3(name, x):
     return out, a.size
 
 
+def _pair_vectors(r1, r2, v1, v2):
+    """The four vectors as length-3 arrays (2D: z = 0) and their common dimension."""
+    (a1, d), (a2, d2), (u1, d3), (u2, d4) = (_vec3(name, x) for name, x in (("r1", r1), ("r2", r2), ("v1", v1), ("v2", v2)))
+    if len({d, d2, d3, d4}) != 1:
+        raise ContactError("r1, r2, v1, v2 must all have the same dimension")
+    return a1, a2, u1, u2, d
+
+
 def lab_frame_update(r1, r2, v1, v2, m1, m2, R1, R2, restitution: Restitution) -> LabUpdate:
     r"""eMD* map in the lab frame (physics.md §4.6) for two spheres touching at :math:`t_0`.
 
@@ -207,12 +215,7 @@ def lab_frame_update(r1, r2, v1, v2, m1, m2, R1, R2, restitution: Restitution) -
         >>> (u.V + u.delta1).round(12).tolist(), (u.V + u.delta2).round(12).tolist() == [0, 0]  # exchanged
         ([-1.0, 0.0], True)
     """
-    a1, d = _vec3("r1", r1)
-    a2, d2 = _vec3("r2", r2)
-    u1, d3 = _vec3("v1", v1)
-    u2, d4 = _vec3("v2", v2)
-    if len({d, d2, d3, d4}) != 1:
-        raise ContactError("r1, r2, v1, v2 must all have the same dimension")
+    a1, a2, u1, u2, d = _pair_vectors(r1, r2, v1, v2)
     m1, m2 = _positive("mass m1", m1), _positive("mass m2", m2)
     sigma = _positive("radius R1", R1) + _positive("radius R2", R2)
     dist = float(np.linalg.norm(a1 - a2))
@@ -307,12 +310,7 @@ def collide_frictional(contact: ContactModel, friction, r1, r2, v1, v2, omega1, 
         raise ContactError(f"contact must be a LinearDashpot or Hertz model, got {contact!r}")
     if not isinstance(friction, Friction):
         raise ContactError(f"friction must be an edmd.Friction, got {friction!r}")
-    a1, d = _vec3("r1", r1)
-    a2, d2 = _vec3("r2", r2)
-    u1, d3 = _vec3("v1", v1)
-    u2, d4 = _vec3("v2", v2)
-    if len({d, d2, d3, d4}) != 1:
-        raise ContactError("r1, r2, v1, v2 must all have the same dimension")
+    a1, a2, u1, u2, d = _pair_vectors(r1, r2, v1, v2)
     w1, w2 = _spin3("omega1", omega1, d), _spin3("omega2", omega2, d)
     m1, m2 = _positive("mass m1", m1), _positive("mass m2", m2)
     R1, R2 = _positive("radius R1", R1), _positive("radius R2", R2)
@@ -358,7 +356,6 @@ def collide_frictional(contact: ContactModel, friction, r1, r2, v1, v2, omega1, 
     sliding = int(info[_tf.I_MODE]) == _tf.SLIDE
     spring = 0.0
     if not sliding:  # energy of the spring k z^2 / 2 in units of mu v_n^2
-        X = float(state[_tf.Y]) * -1.0  # only for the stiffness of Mindlin; recomputed exactly below
         ax = np.array([1.0, 0.0, 0.0]) + s.softness * state[_tf.Y : _tf.Y + 3]
         rho = float(np.linalg.norm(ax))
         X = -(2.0 * state[_tf.Y] + s.softness * float(state[_tf.Y : _tf.Y + 3] @ state[_tf.Y : _tf.Y + 3])) / (1.0 + rho)
