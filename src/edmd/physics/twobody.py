@@ -354,13 +354,10 @@ def collide_frictional(contact: ContactModel, friction, r1, r2, v1, v2, omega1, 
     o1 = Q @ state[_tf.U1 : _tf.U1 + 3] * v_n / R1
     o2 = Q @ state[_tf.U2 : _tf.U2 + 3] * v_n / R2
     sliding = int(info[_tf.I_MODE]) == _tf.SLIDE
-    spring = 0.0
-    if not sliding:  # energy of the spring k z^2 / 2 in units of mu v_n^2
-        ax = np.array([1.0, 0.0, 0.0]) + s.softness * state[_tf.Y : _tf.Y + 3]
-        rho = float(np.linalg.norm(ax))
-        X = -(2.0 * state[_tf.Y] + s.softness * float(state[_tf.Y : _tf.Y + 3] @ state[_tf.Y : _tf.Y + 3])) / (1.0 + rho)
-        kk = k_scaled * (math.sqrt(max(X, 0.0)) if code == 2 else 1.0)
-        spring = 0.5 * kk * float(state[_tf.Z : _tf.Z + 3] @ state[_tf.Z : _tf.Z + 3]) * mu * v_n * v_n
+    if sliding:  # the spring held at the Coulomb limit (zero force at the end: -eta v_t / k)
+        _tf._switch(prm, _tf.SLIDE, state)
+    _n0, _n1, _n2, _rho, _X, _V, _fn, _eta, _f1, _f2, _w0, _w1, _w2, _c0, _c1, _c2, _cn, _v0, _v1, _v2, kk, _kr = _tf._kinematics(prm, state)
+    spring = 0.5 * kk * float(state[_tf.Z : _tf.Z + 3] @ state[_tf.Z : _tf.Z + 3]) * mu * v_n * v_n  # k z^2 / 2 in units of mu v_n^2
     cut = slice(0, d)
     spin = (lambda o: float(o[2])) if d == 2 else (lambda o: o)
     return FrictionalCollision(

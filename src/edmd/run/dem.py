@@ -141,7 +141,8 @@ class DEMEngine:
 
     # ------------------------------------------------------------------ set-up
     def load(self, state: State):
-        """(Re)build every array from ``state`` (user order); cumulative integrals are kept."""
+        """(Re)build every array from ``state`` (user order); cumulative integrals are kept, and so
+        are the tangential springs of pairs in contact before and after (a State holds no springs)."""
         if state.n != self.n or state.dim != self.dim:
             raise StateError("a loaded state must have the same number of particles and dimension")
         n, d = self.n, self.dim
@@ -164,7 +165,12 @@ class DEMEngine:
         omega = np.zeros((rows, 3))
         if self.friction is not None:
             omega[:, _spin_axes(d)] = self.spin.reshape(n, -1)  # 2D: the spin about z
-        self.rot = Spins(omega, omega.copy(), np.zeros((rows, 3)), self.inertia, np.zeros((rows, 1, 3)), np.zeros((rows, 1, 3)), np.zeros((rows, 1), np.int32), np.zeros(rows, np.int32))
+        old = getattr(self, "rot", None)
+        if self.friction is not None and old is not None:  # a reloaded state keeps the springs of the contacts it still has
+            springs = (old.hist, self.nbl, self.nbl_n)
+        else:
+            springs = (np.zeros((rows, 1, 3)), np.zeros((rows, 1), np.int32), np.zeros(rows, np.int32))
+        self.rot = Spins(omega, omega.copy(), np.zeros((rows, 3)), self.inertia, np.zeros((rows, 1, 3)), *springs)
         self._setup()
 
     def _setup(self):
