@@ -28,8 +28,8 @@ entry carries its tangential spring, which a list rebuild hands on to the same p
 Running sums (``sums``): current kinetic energy, elastic energy (with the springs'), virial
 :math:`\sum_{\rm pairs} r_{ij}F_{ij}`, dissipated power :math:`\sum (F - F_{\rm el})\dot\xi`,
 the power taken by the tangential forces :math:`-\sum\mathbf F_t\cdot\mathbf v_t`, the
-rotational kinetic energy, and the trapezoidal time integrals of kinetic energy, virial and
-the two powers (the tangential dissipation is that work minus the springs' energy).
+springs' energy, and the trapezoidal time integrals of kinetic energy, virial and the two
+powers (the tangential dissipation is that work minus the springs' energy).
 """
 
 import math
@@ -40,8 +40,8 @@ from .jit import jit, leaf
 from .layout import C_COLL, C_EVENTS, C_REBUILD, ST_EVENTS, ST_LIST_FULL
 from .predict import wrap3
 
-S_KE, S_U, S_VIR, S_PDISS, S_KE_INT, S_VIR_INT, S_DISS, S_PT, S_WT, S_KE_ROT, S_UT = range(11)
-N_SUMS = 11
+S_KE, S_U, S_VIR, S_PDISS, S_KE_INT, S_VIR_INT, S_DISS, S_PT, S_WT, S_UT = range(10)
+N_SUMS = 10
 
 #: status: a single drift would be longer than half the skin (time step too large)
 ST_STEP_TOO_LARGE = 7
@@ -274,7 +274,7 @@ def carry_springs(rot, nbl, nbl_n):
     """Give each entry of the new list ``nbl`` the spring its pair had in the old list (``rot.nbl_old``; zero if new)."""
     old, old_n, hold, hist = rot.nbl_old, rot.nbl_n_old, rot.hist_old, rot.hist
     for i in range(nbl.shape[0]):
-        m = old_n[i] if i < old_n.shape[0] else 0
+        m = old_n[i]
         for k in range(nbl_n[i]):
             j = nbl[i, k]
             hist[i, k, 0] = 0.0
@@ -316,16 +316,6 @@ def _kick_spins(rot, hh):
             al[i, a] = 0.0
 
 
-@leaf
-def _spin_energy(rot):
-    """Rotational kinetic energy."""
-    e = 0.0
-    om = rot.omega
-    for i in range(om.shape[0]):
-        e += rot.inertia[i] * (om[i, 0] * om[i, 0] + om[i, 1] * om[i, 1] + om[i, 2] * om[i, 2])
-    return 0.5 * e
-
-
 @jit
 def dem_setup(pos, vel, acc, vp, dsp, mass, radius, nbl, nbl_n, tch, grid, geo, model, ca, cb, rot, fric, skin, sums, cbuf):
     """Build the list (springs carried from ``rot.nbl_old``) and evaluate forces and sums at the current state; ``False`` on list overflow."""
@@ -353,7 +343,6 @@ def dem_setup(pos, vel, acc, vp, dsp, mass, radius, nbl, nbl_n, tch, grid, geo, 
     sums[S_VIR] = vir
     sums[S_PDISS] = pd
     sums[S_PT] = pt
-    sums[S_KE_ROT] = _spin_energy(rot) if frictional else 0.0
     return True
 
 
@@ -422,7 +411,6 @@ def dem_steps(pos, vel, acc, vp, dsp, image, mass, radius, nbl, nbl_n, tch, grid
             for i in range(n):
                 for a in range(3):
                     om[i, a] += hh * al[i, a]
-            sums[S_KE_ROT] = _spin_energy(rot)
         sums[S_KE_INT] += hh * (sums[S_KE] + ke)
         sums[S_VIR_INT] += hh * (sums[S_VIR] + vir)
         sums[S_DISS] += hh * (sums[S_PDISS] + pd)

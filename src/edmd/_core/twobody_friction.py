@@ -49,7 +49,6 @@ from .jit import jit, leaf
 
 #: the packed parameters ``prm`` (float64 array)
 P_MODEL, P_C, P_LAM, P_LAW, P_KT, P_XT, P_MU, P_KAPPA1, P_KAPPA2, P_LAMBDA1, P_LAMBDA2 = range(11)
-N_PARAMS = 11
 #: the state: y, p, u1, u2 and z (sticking) or S (sliding)
 Y, P, U1, U2, Z = 0, 3, 6, 9, 12
 N_STATE = 15

@@ -31,6 +31,7 @@ from .._core import contact as _c
 from .._core import twobody_friction as _tf
 from .._core.twobody import lab_frame_update as _lab_frame_update
 from .._core.twobody import solve_scaled
+from ..state import default_inertia
 from .contact import MODELS, ContactError, ContactModel, _positive, pair_constants
 
 #: default relative tolerance of the direct solver
@@ -195,6 +196,17 @@ def _pair_vectors(r1, r2, v1, v2):
     return a1, a2, u1, u2, d
 
 
+def _touching(a1, a2, u1, u2, sigma):
+    """Refuse a pair that does not touch (``|r1 - r2| = sigma``) or does not approach; returns the unit normal ``(r1 - r2) / |r1 - r2|``."""
+    rel = a1 - a2
+    dist = float(np.linalg.norm(rel))
+    if abs(dist - sigma) > 1e-9 * sigma:
+        raise ContactError(f"the spheres must touch: |r1 - r2| = {dist!r} but R1 + R2 = {sigma!r}")
+    if float(rel @ (u1 - u2)) >= 0.0:
+        raise ContactError("the spheres must approach each other ((r1 - r2).(v1 - v2) < 0)")
+    return rel / dist
+
+
 def lab_frame_update(r1, r2, v1, v2, m1, m2, R1, R2, restitution: Restitution) -> LabUpdate:
     r"""eMD* map in the lab frame (physics.md §4.6) for two spheres touching at :math:`t_0`.
 
@@ -218,11 +230,7 @@ def lab_frame_update(r1, r2, v1, v2, m1, m2, R1, R2, restitution: Restitution) -
     a1, a2, u1, u2, d = _pair_vectors(r1, r2, v1, v2)
     m1, m2 = _positive("mass m1", m1), _positive("mass m2", m2)
     sigma = _positive("radius R1", R1) + _positive("radius R2", R2)
-    dist = float(np.linalg.norm(a1 - a2))
-    if abs(dist - sigma) > 1e-9 * sigma:
-        raise ContactError(f"the spheres must touch: |r1 - r2| = {dist!r} but R1 + R2 = {sigma!r}")
-    if float(np.dot(a1 - a2, u1 - u2)) >= 0.0:
-        raise ContactError("the spheres must approach each other ((r1 - r2).(v1 - v2) < 0)")
+    _touching(a1, a2, u1, u2, sigma)
     out = np.zeros((5, 3))
     vn, vt = _lab_frame_update(a1, a2, u1, u2, m1, m2, sigma, restitution.Phi, restitution.D, restitution.eps_hat, out)
     out = out[:, :d].copy()
@@ -314,19 +322,13 @@ def collide_frictional(contact: ContactModel, friction, r1, r2, v1, v2, omega1, 
     w1, w2 = _spin3("omega1", omega1, d), _spin3("omega2", omega2, d)
     m1, m2 = _positive("mass m1", m1), _positive("mass m2", m2)
     R1, R2 = _positive("radius R1", R1), _positive("radius R2", R2)
-    q = 0.4 if d == 3 else 0.5
-    I1 = q * m1 * R1 * R1 if I1 is None else _positive("inertia I1", I1)
-    I2 = q * m2 * R2 * R2 if I2 is None else _positive("inertia I2", I2)
+    solid = default_inertia(np.array([m1, m2]), np.array([R1, R2]), d)
+    I1 = float(solid[0]) if I1 is None else _positive("inertia I1", I1)
+    I2 = float(solid[1]) if I2 is None else _positive("inertia I2", I2)
     mu, reff, sigma = pair_constants(m1, m2, R1, R2)
-    rel = a1 - a2
-    dist = float(np.linalg.norm(rel))
-    if abs(dist - sigma) > 1e-9 * sigma:
-        raise ContactError(f"the spheres must touch: |r1 - r2| = {dist!r} but R1 + R2 = {sigma!r}")
-    ex = rel / dist
+    ex = _touching(a1, a2, u1, u2, sigma)
     g = u1 - u2
     v_n = -float(g @ ex)
-    if v_n <= 0.0:
-        raise ContactError("the spheres must approach each other ((r1 - r2).(v1 - v2) < 0)")
     Q = _collision_frame(ex, g)
     s = contact.scales(m1, m2, R1, R2, v_n)
     c = 2.0 * s.damping if contact.code == _c.MODEL_DASHPOT else s.damping
