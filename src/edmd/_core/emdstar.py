@@ -13,8 +13,16 @@ Pending contacts live in the bundle ``emd`` (:class:`.bundles.EMDStarData`; shor
 * ``ptb (N,)``: local time of the pending B event (``inf``: none);
 * ``pj (N,)`` int32: the partner of the pending contact (``-1``: none);
 * ``values, tg, ctab, cgeo``: the lookup table of the matrix of restitution (:mod:`.lookup`);
-* ``W, K``: scratch of the table lookup and of the direct solver; ``work (9, 3)``: scratch of
-  the lab-frame update (rows: ``r1, r2, v1, v2``, then ``r1A, r2A, V, Delta1, Delta2``).
+* ``W, K``: scratch of the table lookup and of the direct solver; ``work (14, 3)``: scratch of
+  the lab-frame update (rows: ``r1, r2, v1, v2``, then ``r1A, r2A, V, Delta1, Delta2``, the
+  spins after and before a frictional contact, a row of zeros); ``friction``: scratch of the
+  frictional solver.
+
+**Frictional contacts** (``ip[IP_EMD_FRICTION]``, docs/physics.md §4.8, §4.11): the A event
+takes the relocation, velocities and increments from the frictional two-body solver, and the
+spins take their values after the contact at once. Nothing reads a spin between A and B: any
+other event of either particle first completes the contact (exception b), so committing the
+spins at A is the same dynamics as at B, and the State needs no pending spin.
 """
 
 import math
@@ -23,13 +31,14 @@ import numpy as np
 
 from . import layout as L
 from .cells import cell_insert, cell_of_point, cell_remove, walk_around, walk_next
-from .jit import hot, jit
+from .jit import hot, jit, leaf
 from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTACT_SOFT, NB_LIST
 from .lookup import matrix_of_restitution
 from .nblist import SQRT3, rebuild_list
 from .predict import INF, advance, flight, separation, wrap3
 from .schedule import repredict, wrap_into_box
-from .twobody import lab_frame_update
+from .twobody import collision_frame, lab_frame_update
+from .twobody_friction import frictional_update
 from .walls import wall_planes
 
 
@@ -89,15 +98,25 @@ def relocation_blocked(p, x, y, z, i, j, t, P, grid, geo, walls, cbuf):
     return False
 
 
+@leaf
+def _kinetic(m, v, dv):
+    r""":math:`\tfrac12m|\mathbf v + \Delta\mathbf v|^2` of two rows of three numbers."""
+    x, y, z = v[0] + dv[0], v[1] + dv[1], v[2] + dv[2]
+    return 0.5 * m * (x * x + y * y + z * z)
+
+
 @jit
-def contact_map(i, j, P, mass, geo, fp, ip, emd):
-    r"""Matrix of restitution and lab-frame update of the contact ``(i, j)`` (both streamed to it).
+def contact_map(i, j, P, mass, omega, inertia, geo, fp, ip, emd):
+    r"""The A event of the contact ``(i, j)`` (both streamed to it): relocation, velocities, increments.
 
     Fills ``work[4:9]`` with ``r_iA, r_jA, V, Delta_i, Delta_j`` (``r_jA`` in the periodic image
-    closest to ``i``) via physics.md §4.5–§4.7 (table, or the direct solver outside the table's
-    box or when no table is used) and §4.6. Returns ``(t_c, lost, v_n, v_t)``: the contact
-    duration (NaN if the solver failed) and the kinetic energy the pair loses,
-    :math:`\tfrac12\mu\,[v_n^2 + v_t^2 - \hat\varepsilon^2v_n^2 - v_t^2/D^2]`.
+    closest to ``i``). Smooth contacts: the matrix of restitution of physics.md §4.5–§4.7 (table,
+    or the direct solver outside the table's box or when no table is used) and the update of
+    §4.6. Frictional contacts (``ip[IP_EMD_FRICTION]``): the frictional two-body solver
+    (:func:`.twobody_friction.frictional_update`, §4.11), which also fills ``work[9:11]`` with
+    the spins after the contact. Returns ``(t_c, lost, lost_kinetic, v_n, v_t)``: the contact
+    duration (NaN if the solver failed), the energy the pair loses (kinetic and rotational) and
+    its translational part.
     """
     values, tg, ctab, cgeo, W, K, work = emd.values, emd.table_grid, emd.central, emd.central_grid, emd.weights, emd.solver, emd.work
     dx, dy, dz = wrap3(P[j, L.X] - P[i, L.X], P[j, L.Y] - P[i, L.Y], P[j, L.Z] - P[i, L.Z], geo)
@@ -112,22 +131,32 @@ def contact_map(i, j, P, mass, geo, fp, ip, emd):
     ri, rj = P[i, L.R], P[j, L.R]
     sigma = ri + rj
     mu = mi * mj / (mi + mj)
-    out = work[4:9]
-    # normal / tangential impact speeds (the update below recomputes them identically)
-    inv = 1.0 / math.sqrt(dx * dx + dy * dy + dz * dz)
-    gx, gy, gz = work[2, 0] - work[3, 0], work[2, 1] - work[3, 1], work[2, 2] - work[3, 2]
-    vn = (gx * dx + gy * dy + gz * dz) * inv
-    tx, ty, tz = gx - vn * dx * inv, gy - vn * dy * inv, gz - vn * dz * inv
-    vt = math.sqrt(tx * tx + ty * ty + tz * tz)
+    model, a, b = ip[L.IP_EMD_MODEL], fp[L.FP_SOFT_A], fp[L.FP_SOFT_B]
+    _ex, _ey, _ez, _fx, _fy, _fz, vn, vt = collision_frame(work[0], work[1], work[2], work[3])
+    if ip[L.IP_EMD_FRICTION]:
+        for k in range(3):
+            work[11, k] = omega[i, k]
+            work[12, k] = omega[j, k]
+        tc = frictional_update(
+            model, a, b, ip[L.IP_EMD_FRICTION], fp[L.FP_FRICTION_KT], fp[L.FP_FRICTION_XT], fp[L.FP_FRICTION_MU], mi, mj, ri, rj,
+            inertia[i], inertia[j], work[0], work[1], work[2], work[3], work[11], work[12], fp[L.FP_EMD_RTOL], emd.friction, work[4:11],
+        )  # fmt: skip
+        if not tc == tc:
+            return math.nan, 0.0, 0.0, vn, vt
+        zero = work[13]
+        before = _kinetic(mi, work[2], zero) + _kinetic(mj, work[3], zero)
+        lost_kinetic = before - _kinetic(mi, work[6], work[7]) - _kinetic(mj, work[6], work[8])
+        spins = _kinetic(inertia[i], work[11], zero) + _kinetic(inertia[j], work[12], zero)
+        spins -= _kinetic(inertia[i], work[9], zero) + _kinetic(inertia[j], work[10], zero)
+        return tc, lost_kinetic + spins, lost_kinetic, vn, vt
     phi, d, tc, eps, _tab = matrix_of_restitution(
-        ip[L.IP_EMD_MODEL], fp[L.FP_SOFT_A], fp[L.FP_SOFT_B], mu, ri * rj / sigma, sigma, vn, vt,
-        ip[L.IP_EMD_TABLE] != 0, values, tg, ctab, cgeo, fp[L.FP_EMD_RTOL], W, K,
+        model, a, b, mu, ri * rj / sigma, sigma, vn, vt, ip[L.IP_EMD_TABLE] != 0, values, tg, ctab, cgeo, fp[L.FP_EMD_RTOL], W, K
     )  # fmt: skip
     if not tc == tc:
-        return math.nan, 0.0, vn, vt
-    vn, vt = lab_frame_update(work[0], work[1], work[2], work[3], mi, mj, sigma, phi, d, eps, out)
+        return math.nan, 0.0, 0.0, vn, vt
+    vn, vt = lab_frame_update(work[0], work[1], work[2], work[3], mi, mj, sigma, phi, d, eps, work[4:9])
     lost = 0.5 * mu * ((1.0 - eps * eps) * vn * vn + (1.0 - 1.0 / (d * d)) * vt * vt)
-    return tc, lost, vn, vt
+    return tc, lost, lost, vn, vt
 
 
 @jit
@@ -194,7 +223,7 @@ def emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt, 
     sigma = P[i, L.R] + P[j, L.R]
     if dx * dx + dy * dy + dz * dz < (sigma * (1.0 - 1e-9)) ** 2:
         return CONTACT_INSTANT  # overlapping and approaching: no contact geometry to start from
-    tc, lost, vn, vt = contact_map(i, j, P, mass, geo, fp, ip, emd)
+    tc, lost, lost_kinetic, vn, vt = contact_map(i, j, P, mass, omega, inertia, geo, fp, ip, emd)
     if not tc == tc:
         return CONTACT_INSTANT
     work = emd.work
@@ -214,12 +243,16 @@ def emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt, 
         P[j, L.VX + k] = work[6, k]
         pdv[i, k] = work[7, k]
         pdv[j, k] = work[8, k]
+    if ip[L.IP_EMD_FRICTION]:  # the spins take their values after the contact now (see the module docs)
+        for k in range(3):
+            omega[i, k] = work[9, k]
+            omega[j, k] = work[10, k]
     ptb[i] = t + tc
     ptb[j] = t + tc
     pj[i] = j
     pj[j] = i
     acc[L.A_VIRIAL] += jn
-    acc[L.A_KE] -= lost
+    acc[L.A_KE] -= lost_kinetic
     acc[L.A_DISSIPATED] += lost
     cnt[L.C_EMD_A] += 1
     acc[L.A_EMD_VN] = vn

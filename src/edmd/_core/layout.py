@@ -140,11 +140,12 @@ IPARAMS = (
     "kick_seed",  # its random seed
     "log_walls",  # the collision log also records wall impacts
     "well",  # square-well attraction on (wells.py)
+    "emd_friction",  # eMD*: the tangential law of frictional contacts (physics.friction.LAWS; 0: smooth)
 )
 (
     IP_MODE, IP_LOG_CAP, IP_MAXSTALL, IP_DEBUG, IP_NORMAL, IP_TANGENT, IP_TC, IP_WALL_NORMAL,
     IP_WALL_TANGENT, IP_WALLS, IP_EMD, IP_EMD_MODEL, IP_EMD_TABLE, IP_EMD_COMM, IP_BATH, IP_BATH_SEED,
-    IP_KICK, IP_KICK_SEED, IP_LOG_WALLS, IP_WELL,
+    IP_KICK, IP_KICK_SEED, IP_LOG_WALLS, IP_WELL, IP_EMD_FRICTION,
 ) = range(len(IPARAMS))  # fmt: skip
 N_IP = len(IPARAMS)
 #: parameters of what the engine records, not of the physics (observers set them again on a restart)
@@ -180,12 +181,16 @@ FPARAMS = (
     "grow_segment",  # the engine reloads (and rescales velocities) at t0 + k grow_segment
     "grow_local",  # the rate relative to the radii of the last load, per unit local time (set at each load)
     "list_margin",  # neighbour lists reach (1 + list_margin) x their interaction range (set at each load)
+    "friction_stiffness",  # eMD* frictional contacts: k_t (linear) or k_t0 (Mindlin)
+    "friction_damping",  # x_t, the tangential damping as a multiple of the normal one
+    "friction_mu",  # Coulomb friction coefficient of the contact law
 )
 (
     FP_SKIN, FP_DEBUG_TOL, FP_EN, FP_BETA, FP_MU, FP_TC, FP_VISCO_K, FP_VISCO_A, FP_ETAB_INV,
     FP_WALL_EN, FP_WALL_BETA, FP_WALL_MU, FP_MTOT, FP_SOFT_A, FP_SOFT_B, FP_EMD_RTOL, FP_BATH_KT,
     FP_BATH_RATE, FP_KICK_XI0, FP_KICK_INTERVAL, FP_KICK_START, FP_WELL_WIDTH, FP_WELL_DEPTH,
-    FP_GROW_RATE, FP_GROW_START, FP_GROW_SEGMENT, FP_GROW_LOCAL, FP_LIST_MARGIN,
+    FP_GROW_RATE, FP_GROW_START, FP_GROW_SEGMENT, FP_GROW_LOCAL, FP_LIST_MARGIN, FP_FRICTION_KT,
+    FP_FRICTION_XT, FP_FRICTION_MU,
 ) = range(len(FPARAMS))  # fmt: skip
 N_FP = len(FPARAMS)
 

@@ -197,6 +197,32 @@ def dashpot_central(zeta):
 
 
 @leaf
+def collision_frame(r1, r2, v1, v2):
+    r"""The collision frame of two touching spheres (physics.md §4.2) and the impact speeds.
+
+    :math:`\hat{\mathbf e}_x = (\mathbf r_1 - \mathbf r_2)/r`, :math:`\hat{\mathbf e}_y` along the
+    tangential relative velocity (for a central collision any unit vector perpendicular to
+    :math:`\hat{\mathbf e}_x`, in the plane ``z = 0`` when :math:`\hat{\mathbf e}_x` is).
+    Returns ``(ex, ey, ez, fx, fy, fz, v_n, v_t)``: :math:`\hat{\mathbf e}_x`, :math:`\hat{\mathbf e}_y`
+    and :math:`v_n = -\mathbf g\cdot\hat{\mathbf e}_x`, :math:`v_t = |\mathbf g_t|` (0 if central).
+    """
+    rx, ry, rz = r1[0] - r2[0], r1[1] - r2[1], r1[2] - r2[2]
+    gx, gy, gz = v1[0] - v2[0], v1[1] - v2[1], v1[2] - v2[2]
+    inv = 1.0 / math.sqrt(rx * rx + ry * ry + rz * rz)
+    ex, ey, ez = rx * inv, ry * inv, rz * inv
+    gn = gx * ex + gy * ey + gz * ez
+    tx, ty, tz = gx - gn * ex, gy - gn * ey, gz - gn * ez
+    vt = math.sqrt(tx * tx + ty * ty + tz * tz)
+    if vt > 1e-14 * abs(gn):
+        return ex, ey, ez, tx / vt, ty / vt, tz / vt, -gn, vt
+    if abs(ez) < 0.9:  # central
+        nrm = 1.0 / math.sqrt(ex * ex + ey * ey)
+        return ex, ey, ez, -ey * nrm, ex * nrm, 0.0, -gn, 0.0
+    nrm = 1.0 / math.sqrt(ex * ex + ez * ez)
+    return ex, ey, ez, ez * nrm, 0.0, -ex * nrm, -gn, 0.0
+
+
+@leaf
 def lab_frame_update(r1, r2, v1, v2, m1, m2, sigma, Phi, D, eps_hat, out):
     r"""eMD* relocation and post-collisional velocities in the lab frame (physics.md §4.6).
 
@@ -227,24 +253,7 @@ def lab_frame_update(r1, r2, v1, v2, m1, m2, sigma, Phi, D, eps_hat, out):
     M = m1 + m2
     w1 = m1 / M
     w2 = m2 / M
-    rx, ry, rz = r1[0] - r2[0], r1[1] - r2[1], r1[2] - r2[2]
-    gx, gy, gz = v1[0] - v2[0], v1[1] - v2[1], v1[2] - v2[2]
-    inv = 1.0 / math.sqrt(rx * rx + ry * ry + rz * rz)
-    ex, ey, ez = rx * inv, ry * inv, rz * inv
-    gn = gx * ex + gy * ey + gz * ez
-    vn = -gn
-    tx, ty, tz = gx - gn * ex, gy - gn * ey, gz - gn * ez
-    vt = math.sqrt(tx * tx + ty * ty + tz * tz)
-    if vt > 1e-14 * abs(vn):
-        fx, fy, fz = tx / vt, ty / vt, tz / vt
-    else:  # central: any unit vector perpendicular to e_x (in the plane z = 0 when e_x is)
-        vt = 0.0
-        if abs(ez) < 0.9:
-            nrm = 1.0 / math.sqrt(ex * ex + ey * ey)
-            fx, fy, fz = -ey * nrm, ex * nrm, 0.0
-        else:
-            nrm = 1.0 / math.sqrt(ex * ex + ez * ez)
-            fx, fy, fz = ez * nrm, 0.0, -ex * nrm
+    ex, ey, ez, fx, fy, fz, vn, vt = collision_frame(r1, r2, v1, v2)
     cp, sp = math.cos(Phi), math.sin(Phi)
     nx, ny, nz = cp * ex + sp * fx, cp * ey + sp * fy, cp * ez + sp * fz
     ux, uy, uz = -sp * ex + cp * fx, -sp * ey + cp * fy, -sp * ez + cp * fz

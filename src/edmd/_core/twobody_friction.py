@@ -43,9 +43,10 @@ Everything is a plain compiled function over scalars and caller-provided scratch
 
 import math
 
-from .contact import MODEL_HERTZ
+from .contact import MODEL_HERTZ, contact_scales
 from .dop853 import A, B, N_STAGES, error_norm, error_terms
 from .jit import jit, leaf
+from .twobody import collision_frame
 
 #: the packed parameters ``prm`` (float64 array)
 P_MODEL, P_C, P_LAM, P_LAW, P_KT, P_XT, P_MU, P_KAPPA1, P_KAPPA2, P_LAMBDA1, P_LAMBDA2 = range(11)
@@ -55,6 +56,10 @@ N_STATE = 15
 STICK, SLIDE = 0, 1
 #: what solve_frictional returns in ``info``: duration, switches, final mode, steps
 I_TAU, I_SWITCHES, I_MODE, I_STEPS = range(4)
+#: the scratch of :func:`frictional_update` ``(SCRATCH_ROWS, N_STATE)``: rows 0-12 the stages ``K``,
+#: 13-15 ``W``, 16 the state, 17 the parameters (``prm``, 11 numbers) followed by ``info`` (4)
+SCRATCH_ROWS = 18
+ROW_STATE, ROW_PRM, INFO_AT = 16, 17, 11
 
 _SAFETY, _MIN_FACTOR, _MAX_FACTOR = 0.9, 0.2, 10.0
 _MAX_STEP = 0.25
@@ -378,3 +383,71 @@ def solve_frictional(prm, s, rtol, K, W, info):
                 K[0, q] = K[12, q]
         h = h_next
     return False
+
+
+@leaf
+def _to_frame(ex, ey, ez, fx, fy, fz, hx, hy, hz, v, scale, s, at):
+    """Components of the lab vector ``v`` along the frame's axes, times ``scale``, into ``s[at:at+3]``."""
+    s[at] = scale * (v[0] * ex + v[1] * ey + v[2] * ez)
+    s[at + 1] = scale * (v[0] * fx + v[1] * fy + v[2] * fz)
+    s[at + 2] = scale * (v[0] * hx + v[1] * hy + v[2] * hz)
+
+
+@leaf
+def _to_lab(ex, ey, ez, fx, fy, fz, hx, hy, hz, a, b, c):
+    return a * ex + b * fx + c * hx, a * ey + b * fy + c * hy, a * ez + b * fz + c * hz
+
+
+@jit
+def frictional_update(model, ca, cb, law, kt, xt, muf, m1, m2, R1, R2, I1, I2, r1, r2, v1, v2, w1, w2, rtol, F, out):
+    r"""The frictional contact of two spheres touching now, as eMD* needs it (docs/physics.md §4.8, §4.11).
+
+    ``model, ca, cb``: the normal law (:mod:`.contact`); ``law, kt, xt, muf``: the tangential law
+    (:mod:`edmd.physics.friction`: code, :math:`k_t` or :math:`k_{t0}`, :math:`x_t`, :math:`\mu`);
+    ``r1, r2, v1, v2, w1, w2``: positions (``|r1 - r2| = R1 + R2``), velocities and spins (3
+    numbers each; 2D: planar, spins along z). Solves the contact in its collision frame
+    (:func:`.twobody.collision_frame`, :func:`solve_frictional`) and fills ``out (7, 3)`` with
+    the eMD* A event's relocated positions :math:`\mathbf r_{1,2}^A = \mathbf R \pm \tfrac{m_{2,1}}{M}\mathbf r(t_c)`,
+    the centre-of-mass velocity :math:`\mathbf V`, the increments :math:`\boldsymbol\Delta_{1,2} = \pm\tfrac{m_{2,1}}{M}\dot{\mathbf r}(t_c)`
+    and the spins at the end. Returns the contact duration :math:`t_c` (NaN if the integration
+    failed). ``F``: scratch ``(SCRATCH_ROWS, N_STATE)``; afterwards ``F[ROW_STATE]`` holds the final
+    scaled state and ``F[ROW_PRM, INFO_AT:]`` the solver's ``info``.
+    """
+    ex, ey, ez, fx, fy, fz, vn, _vt = collision_frame(r1, r2, v1, v2)
+    hx, hy, hz = _cross(ex, ey, ez, fx, fy, fz)
+    M = m1 + m2
+    mu = m1 * m2 / M
+    sigma = R1 + R2
+    reff = R1 * R2 / sigma
+    c, lam, ts, ls = contact_scales(model, ca, cb, mu, reff, sigma, vn)
+    prm, s, info = F[ROW_PRM, :INFO_AT], F[ROW_STATE], F[ROW_PRM, INFO_AT : INFO_AT + 4]
+    prm[P_MODEL], prm[P_C], prm[P_LAM], prm[P_LAW] = model, c, lam, law
+    prm[P_KT] = kt * ts * ts / mu * (math.sqrt(reff * ls) if law == 2 else 1.0)
+    prm[P_XT], prm[P_MU] = xt, muf
+    prm[P_KAPPA1], prm[P_KAPPA2] = mu * R1 * R1 / I1, mu * R2 * R2 / I2
+    prm[P_LAMBDA1], prm[P_LAMBDA2] = sigma / (2.0 * R1), sigma / (2.0 * R2)
+    for q in range(N_STATE):
+        s[q] = 0.0
+    g = (v1[0] - v2[0], v1[1] - v2[1], v1[2] - v2[2])
+    _to_frame(ex, ey, ez, fx, fy, fz, hx, hy, hz, g, 1.0 / vn, s, P)
+    _to_frame(ex, ey, ez, fx, fy, fz, hx, hy, hz, w1, R1 / vn, s, U1)
+    _to_frame(ex, ey, ez, fx, fy, fz, hx, hy, hz, w2, R2 / vn, s, U2)
+    if not solve_frictional(prm, s, rtol, F[0:13], F[13:16], info):
+        return math.nan
+    a1, a2 = m2 / M, m1 / M
+    rx, ry, rz = _to_lab(ex, ey, ez, fx, fy, fz, hx, hy, hz, sigma * (1.0 + lam * s[Y]), sigma * lam * s[Y + 1], sigma * lam * s[Y + 2])
+    gx, gy, gz = _to_lab(ex, ey, ez, fx, fy, fz, hx, hy, hz, vn * s[P], vn * s[P + 1], vn * s[P + 2])
+    o1 = _to_lab(ex, ey, ez, fx, fy, fz, hx, hy, hz, s[U1] * vn / R1, s[U1 + 1] * vn / R1, s[U1 + 2] * vn / R1)
+    o2 = _to_lab(ex, ey, ez, fx, fy, fz, hx, hy, hz, s[U2] * vn / R2, s[U2 + 1] * vn / R2, s[U2 + 2] * vn / R2)
+    r = (rx, ry, rz)
+    gend = (gx, gy, gz)
+    for k in range(3):
+        R = (m1 * r1[k] + m2 * r2[k]) / M
+        out[0, k] = R + a1 * r[k]
+        out[1, k] = R - a2 * r[k]
+        out[2, k] = (m1 * v1[k] + m2 * v2[k]) / M
+        out[3, k] = a1 * gend[k]
+        out[4, k] = -a2 * gend[k]
+        out[5, k] = o1[k]
+        out[6, k] = o2[k]
+    return info[I_TAU] * ts

@@ -25,6 +25,7 @@ import numpy as np
 from .._core import layout as L
 from .contact import ContactModel, Hertz, LinearDashpot, viscoelastic_table
 from .emdstar import EMDStar
+from .friction import Friction
 from .errors import RuleError
 
 
@@ -228,7 +229,7 @@ def uses_rotation(rule, wall: Wall) -> bool:
     return rule.laws()[1][0] != L.TANGENT_SMOOTH or wall.laws()[1][0] != L.TANGENT_SMOOTH
 
 
-_KINDS = {cls.__name__: cls for cls in (Inelastic, Rough, TC, Wall, EMDStar, Hertz, LinearDashpot)}
+_KINDS = {cls.__name__: cls for cls in (Inelastic, Rough, TC, Wall, EMDStar, Hertz, LinearDashpot, Friction)}
 _KINDS["Viscoelastic"] = Hertz  # (the name the material had as a rule of its own, in older checkpoints)
 
 

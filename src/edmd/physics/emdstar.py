@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import math
 import os
 from pathlib import Path
 
@@ -40,8 +41,10 @@ import numpy as np
 
 from .._core import layout as L
 from .._core import lookup as _lk
+from .._core import twobody_friction as _tf
 from .._core.bundles import EMDStarData
-from .contact import ContactModel, Hertz, LinearDashpot
+from .contact import ContactError, ContactModel, Hertz, LinearDashpot
+from .friction import Friction
 from .tables import RestitutionTable, default_table
 
 
@@ -66,6 +69,13 @@ class EMDStar:
         communication: in exception b), also execute the pending B of the former partner
             ("post-collisional communication"; keeps angular momentum exact).
         rtol: relative tolerance of the direct two-body solver.
+        friction: a tangential law (:class:`~edmd.physics.friction.Friction`) for frictional
+            contacts with spins (docs/physics.md §4.8, §4.11): every contact is solved directly
+            (no table), and spins change at the A event.
+        fallback_beta: frictional contacts only: the sticking restitution :math:`\beta_0` of the
+            instantaneous rough rule (Walton, Coulomb limit ``friction.mu``) that resolves the
+            exceptions; default :func:`sticking_beta` of the contact and tangential laws, for solid
+            spheres (3D) or disks (2D): :meth:`for_dim`, which the engine applies.
 
     Example:
         >>> import edmd
@@ -82,6 +92,8 @@ class EMDStar:
     tables: str = "default"
     communication: bool = True
     rtol: float = 1e-10
+    friction: Friction | None = None
+    fallback_beta: float | None = None
 
     def __post_init__(self):
         if not isinstance(self.contact, (Hertz, LinearDashpot)):
@@ -95,10 +107,43 @@ class EMDStar:
         if not (isinstance(self.rtol, float) and 1e-14 <= self.rtol <= 1e-4):
             raise EMDStarError(f"rtol must be a float in [1e-14, 1e-4], got {self.rtol!r}")
         self.table()  # fail early: a missing file or a table of another model
+        if self.friction is not None and not isinstance(self.friction, Friction):
+            raise EMDStarError(f"friction must be an edmd.Friction, got {self.friction!r}")
+        if self.fallback_beta is not None:
+            if self.friction is None:
+                raise EMDStarError("fallback_beta is the sticking restitution of frictional contacts: it needs friction = ...")
+            if not (isinstance(self.fallback_beta, (int, float)) and -1.0 <= self.fallback_beta <= 1.0):
+                raise EMDStarError(f"fallback_beta must be a number in [-1, 1], got {self.fallback_beta!r}")
+            object.__setattr__(self, "fallback_beta", float(self.fallback_beta))
+        if self.friction is not None:
+            try:
+                self.friction.constants(self.contact)
+            except ContactError as exc:
+                raise EMDStarError(str(exc)) from None
+            if self.fallback_beta is None:
+                sticking_beta(self.contact, self.friction)  # fail early: no default for this pairing
+
+    def for_dim(self, dim: int) -> EMDStar:
+        """This rule with its default ``fallback_beta`` resolved for solid spheres (3D) or disks (2D).
+
+        Example:
+            >>> from edmd.physics.contact import LinearDashpot
+            >>> from edmd.physics.friction import Friction
+            >>> rule = EMDStar(LinearDashpot(k=7.0), friction=Friction(mu=0.5, stiffness=2.0))
+            >>> round(rule.for_dim(3).fallback_beta, 12), round(rule.for_dim(2).fallback_beta, 6)
+            (1.0, 0.972968)
+        """
+        if self.friction is None or self.fallback_beta is not None:
+            return self
+        return dataclasses.replace(self, fallback_beta=sticking_beta(self.contact, self.friction, 0.4 if dim == 3 else 0.5))
 
     def laws(self):
-        """Its instantaneous fallbacks' laws: the contact law's central :math:`e_n(v_n)`, smooth."""
-        return (L.NORMAL_SOFT, 1.0), L.SMOOTH
+        r"""Its instantaneous fallbacks' laws: the contact law's central :math:`e_n(v_n)`; smooth, or
+        with friction Walton's rough rule (:math:`\beta_0` = ``fallback_beta``, :math:`\mu` of the friction)."""
+        if self.friction is None:
+            return (L.NORMAL_SOFT, 1.0), L.SMOOTH
+        beta = sticking_beta(self.contact, self.friction) if self.fallback_beta is None else self.fallback_beta
+        return (L.NORMAL_SOFT, 1.0), (L.TANGENT_COULOMB, beta, self.friction.mu)
 
     def pack(self, fp: np.ndarray, ip: np.ndarray):
         """Write eMD*'s switches and its fallback laws into the core's parameter arrays
@@ -108,6 +153,10 @@ class EMDStar:
         ip[L.IP_EMD_TABLE] = int(self.tables != "exact")
         ip[L.IP_EMD_COMM] = int(self.communication)
         fp[L.FP_EMD_RTOL] = self.rtol
+        if self.friction is not None:
+            code, kt, xt, mu = self.friction.constants(self.contact)
+            ip[L.IP_EMD_FRICTION] = code
+            fp[L.FP_FRICTION_KT], fp[L.FP_FRICTION_XT], fp[L.FP_FRICTION_MU] = kt, xt, mu
 
     def table(self) -> RestitutionTable | None:
         """The lookup table used (``None`` for ``tables = "exact"``)."""
@@ -117,6 +166,37 @@ class EMDStar:
         """``(values, tg, ctab, cgeo)`` for the compiled core (placeholders without a table)."""
         tab = self.table()
         return NO_TABLE if tab is None else tab.core()
+
+
+def sticking_beta(contact: ContactModel, friction: Friction, inertia_factor: float = 0.4) -> float:
+    r"""Tangential restitution :math:`\beta_0` of a sticking contact of two equal particles (docs/physics.md §2.6).
+
+    The undamped tangential oscillator rides on the normal one: with the ratio :math:`r` of the
+    tangential to the normal stiffness and the mass ratio :math:`\mu/m_t = 1 + 1/q`
+    (:math:`I = qmR^2`, :math:`\mu R^2/I = 1/2q`; ``inertia_factor`` :math:`q = 2/5` for solid spheres, :math:`1/2` for disks),
+
+    .. math::
+        \beta_0 = -\cos\big(\pi\sqrt{r\,\mu/m_t}\big).
+
+    :math:`r = k_t/k` for a linear spring with a dashpot, and :math:`r = k_{t0}/(\tfrac32 a)` for
+    Mindlin with Hertz (both stiffnesses grow as :math:`\sqrt\xi`: :math:`2(1-\nu)/(2-\nu)` by default),
+    where the ratio is constant; exact for the dashpot without damping, an estimate otherwise.
+    Other pairings have no constant ratio: give ``fallback_beta``.
+
+    Example:
+        >>> from edmd.physics.contact import LinearDashpot
+        >>> from edmd.physics.friction import Friction
+        >>> round(sticking_beta(LinearDashpot(k=7.0), Friction(mu=0.5, stiffness=2.0)), 12)   # k_t / k = 2/7: perfectly rough
+        1.0
+    """
+    a = contact.constants()[0]
+    if isinstance(contact, LinearDashpot) and friction.law == "linear":
+        r = friction.stiffness_for(contact) / a
+    elif isinstance(contact, Hertz) and friction.law == "mindlin":
+        r = friction.stiffness_for(contact) / (1.5 * a)
+    else:
+        raise EMDStarError(f"a {friction.law} spring with a {contact.name} contact has no constant stiffness ratio: give fallback_beta = ...")
+    return -math.cos(math.pi * math.sqrt(r * (1.0 + 1.0 / inertia_factor)))
 
 
 #: placeholder table arrays of the same types as a real table's (one compiled loop for all runs)
@@ -152,8 +232,8 @@ def emd_bundle(n: int, rule: EMDStar | None, pending=None) -> EMDStarData:
     values, tg, ctab, cgeo = NO_TABLE if rule is None else rule.core()
     values, ctab = np.ascontiguousarray(values, float), np.ascontiguousarray(ctab, float)
     tg, cgeo = tuple(float(x) for x in tg), tuple(float(x) for x in cgeo)
-    scratch = (np.zeros(_lk.SCRATCH_SHAPE), np.zeros((13, 3)), np.zeros((9, 3)))
+    scratch = (np.zeros(_lk.SCRATCH_SHAPE), np.zeros((13, 3)), np.zeros((14, 3)), np.zeros((_tf.SCRATCH_ROWS, _tf.N_STATE)))
     return EMDStarData(np.ascontiguousarray(dv, float), np.ascontiguousarray(tb, float), np.ascontiguousarray(pj, np.int32), values, tg, ctab, cgeo, *scratch)
 
 
-__all__ = ["EMDStar", "EMDStarError", "TABLE_CHOICES", "emd_bundle"]
+__all__ = ["EMDStar", "EMDStarError", "TABLE_CHOICES", "emd_bundle", "sticking_beta"]

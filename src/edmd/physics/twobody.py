@@ -275,19 +275,6 @@ def _spin3(name, w, d):
     return a
 
 
-def _collision_frame(ex, g):
-    """Columns e_x, e_y, e_z: e_y along the tangential relative velocity (any perpendicular, in the z = 0 plane when e_x is, if none)."""
-    gt = g - (g @ ex) * ex
-    vt = float(np.linalg.norm(gt))
-    if vt > 1e-14 * float(np.linalg.norm(g)):
-        ey = gt / vt
-    elif abs(ex[2]) < 0.9:
-        ey = np.array([-ex[1], ex[0], 0.0]) / math.hypot(ex[0], ex[1])
-    else:
-        ey = np.array([ex[2], 0.0, -ex[0]]) / math.hypot(ex[0], ex[2])
-    return np.column_stack([ex, ey, np.cross(ex, ey)])
-
-
 def collide_frictional(contact: ContactModel, friction, r1, r2, v1, v2, omega1, omega2, m1, m2, R1, R2, I1=None, I2=None, rtol: float = 1e-10) -> FrictionalCollision:
     r"""Integrate one frictional contact of two spheres (3D) or disks (2D) touching now (docs/physics.md §4.11).
 
@@ -325,49 +312,37 @@ def collide_frictional(contact: ContactModel, friction, r1, r2, v1, v2, omega1, 
     solid = default_inertia(np.array([m1, m2]), np.array([R1, R2]), d)
     I1 = float(solid[0]) if I1 is None else _positive("inertia I1", I1)
     I2 = float(solid[1]) if I2 is None else _positive("inertia I2", I2)
-    mu, reff, sigma = pair_constants(m1, m2, R1, R2)
+    sigma = R1 + R2
     ex = _touching(a1, a2, u1, u2, sigma)
-    g = u1 - u2
-    v_n = -float(g @ ex)
-    Q = _collision_frame(ex, g)
-    s = contact.scales(m1, m2, R1, R2, v_n)
-    c = 2.0 * s.damping if contact.code == _c.MODEL_DASHPOT else s.damping
+    v_n = -float((u1 - u2) @ ex)
+    ca, cb = contact.constants()
     code, kt, xt, mu_c = friction.constants(contact)
-    k_scaled = kt * s.t_s**2 / mu * (math.sqrt(reff * s.l_s) if code == 2 else 1.0)
-    prm = np.array([contact.code, c, s.softness, code, k_scaled, xt, mu_c, mu * R1 * R1 / I1, mu * R2 * R2 / I2, sigma / (2 * R1), sigma / (2 * R2)], float)
-    state = np.zeros(_tf.N_STATE)
-    state[_tf.P : _tf.P + 3] = Q.T @ g / v_n
-    state[_tf.U1 : _tf.U1 + 3] = R1 * (Q.T @ w1) / v_n
-    state[_tf.U2 : _tf.U2 + 3] = R2 * (Q.T @ w2) / v_n
-    info = np.zeros(4)
-    ok = _tf.solve_frictional(prm, state, rtol, np.zeros((13, _tf.N_STATE)), np.zeros((3, _tf.N_STATE)), info)
-    if not ok or not np.all(np.isfinite(state)):
+    F = np.zeros((_tf.SCRATCH_ROWS, _tf.N_STATE))
+    out = np.zeros((7, 3))
+    t_c = _tf.frictional_update(contact.code, ca, cb, code, kt, xt, mu_c, m1, m2, R1, R2, I1, I2, a1, a2, u1, u2, w1, w2, rtol, F, out)
+    state, prm, info = F[_tf.ROW_STATE], F[_tf.ROW_PRM, : _tf.INFO_AT], F[_tf.ROW_PRM, _tf.INFO_AT :]
+    if not math.isfinite(t_c) or not np.all(np.isfinite(out)):
         why = ""
         if code == 2 and xt > 0.0:
             why = ("; Mindlin's stiffness vanishes at the touch, so while the tangential damping force exceeds the Coulomb "
                    "limit the spring held at that limit would need an infinite extension: use damping = 0 with Mindlin")  # fmt: skip
         raise ContactError(f"the frictional contact integration did not finish (v_n = {v_n!r}, friction = {friction!r}){why}")
-    t_c = float(info[_tf.I_TAU]) * s.t_s
-    r_end = Q @ (np.array([1.0, 0.0, 0.0]) + s.softness * state[_tf.Y : _tf.Y + 3]) * sigma
-    g_end = Q @ state[_tf.P : _tf.P + 3] * v_n
-    W = (m1 * u1 + m2 * u2) / (m1 + m2)
-    R0 = (m1 * a1 + m2 * a2) / (m1 + m2) + W * t_c
-    f1, f2 = m2 / (m1 + m2), m1 / (m1 + m2)
-    o1 = Q @ state[_tf.U1 : _tf.U1 + 3] * v_n / R1
-    o2 = Q @ state[_tf.U2 : _tf.U2 + 3] * v_n / R2
     sliding = int(info[_tf.I_MODE]) == _tf.SLIDE
     if sliding:  # the spring held at the Coulomb limit (zero force at the end: -eta v_t / k)
         _tf._switch(prm, _tf.SLIDE, state)
     _n0, _n1, _n2, _rho, _X, _V, _fn, _eta, _f1, _f2, _w0, _w1, _w2, _c0, _c1, _c2, _cn, _v0, _v1, _v2, kk, _kr = _tf._kinematics(prm, state)
+    mu = m1 * m2 / (m1 + m2)
     spring = 0.5 * kk * float(state[_tf.Z : _tf.Z + 3] @ state[_tf.Z : _tf.Z + 3]) * mu * v_n * v_n  # k z^2 / 2 in units of mu v_n^2
+    r1e, r2e, V = out[0] + out[2] * t_c, out[1] + out[2] * t_c, out[2]
+    o1, o2 = out[5], out[6]
     cut = slice(0, d)
     spin = (lambda o: float(o[2])) if d == 2 else (lambda o: o)
     return FrictionalCollision(
-        t_c=t_c,
-        r1=(R0 + f1 * r_end)[cut],
-        r2=(R0 - f2 * r_end)[cut],
-        v1=(W + f1 * g_end)[cut],
-        v2=(W - f2 * g_end)[cut],
+        t_c=float(t_c),
+        r1=r1e[cut],
+        r2=r2e[cut],
+        v1=(V + out[3])[cut],
+        v2=(V + out[4])[cut],
         omega1=spin(o1),
         omega2=spin(o2),
         switches=int(info[_tf.I_SWITCHES]),

@@ -108,6 +108,8 @@ class Engine:
         self.fp = np.zeros(L.N_FP)
         self.ip = np.zeros(L.N_IP, np.int64)
         self.rule = collide.Inelastic(1.0) if rule is None else rule
+        if isinstance(self.rule, EMDStar):
+            self.rule = self.rule.for_dim(self.dim)  # (frictional: the fallback's sticking restitution of spheres or disks)
         self.wall = collide.default_wall(self.rule) if wall is None else wall
         self.emd_rule = self.rule if isinstance(self.rule, EMDStar) else None
         collide.pack(self.rule, self.wall, self.fp, self.ip)
