@@ -139,7 +139,9 @@ class CollisionConfig(_Section):
     (``young``, ``poisson``, ``A``). ``tc`` switches the TC model on with that duration.
     ``"emdstar"`` (soft spheres, :class:`edmd.physics.emdstar.EMDStar`): ``contact = "hertz"`` with
     ``young``, ``poisson``, ``A`` or ``contact = "dashpot"`` with ``k`` and ``gamma`` (or ``e_n``
-    for two particles of the mean mass), ``tables`` and ``communication``.
+    for two particles of the mean mass), ``tables`` and ``communication``; with a ``[friction]``
+    section the contacts are frictional, and ``beta`` sets the sticking restitution of the
+    instantaneous fallback (default from the laws).
     """
 
     rule: Literal["elastic", "inelastic", "rough", "viscoelastic", "emdstar"] = "elastic"
@@ -184,7 +186,7 @@ class CollisionConfig(_Section):
     def _emdstar_consistent(self):
         if self.contact is None:
             raise ValueError("rule 'emdstar' needs contact = 'hertz' (young, poisson, A) or 'dashpot' (k, gamma or e_n)")
-        _check_soft_law(self.contact, self, unused=("beta", "e_t", "mu", "tc"))
+        _check_soft_law(self.contact, self, unused=("e_t", "mu", "tc"))
         if self.e_n == 0.0:
             raise ValueError("e_n = 0 has no dashpot (its damping would be infinite): give 0 < e_n <= 1, or gamma")
         return self
@@ -199,13 +201,14 @@ class CollisionConfig(_Section):
             return None
         return collide.Viscoelastic(young=self.young, poisson=self.poisson, A=self.A)
 
-    def build(self, mass: float = 1.0) -> collide.Rule:
-        """The :mod:`edmd.physics.collide` rule object (``mass``: the mean particle mass, see :meth:`soft_contact`)."""
+    def build(self, mass: float = 1.0, friction=None) -> collide.Rule:
+        """The :mod:`edmd.physics.collide` rule object (``mass``: the mean particle mass, see :meth:`soft_contact`;
+        ``friction``: the :class:`~edmd.physics.friction.Friction` of frictional eMD* contacts)."""
         if self.rule == "emdstar":
             from ..physics.emdstar import EMDStar
 
-            extra = {k: v for k, v in (("tables", self.tables), ("communication", self.communication)) if v is not None}
-            return EMDStar(self.soft_contact(mass), **extra)
+            extra = {k: v for k, v in (("tables", self.tables), ("communication", self.communication), ("fallback_beta", self.beta)) if v is not None}
+            return EMDStar(self.soft_contact(mass), friction=friction, **extra)
         if self.rule == "elastic":
             rule = collide.Inelastic(1.0)
         elif self.rule == "inelastic":
@@ -439,14 +442,19 @@ class Config(_Section):
                 raise ValueError("the DEM needs a periodic box: leave walls.axes empty")
             if any(x is not None for x in (self.thermostat, self.forcing, self.vibration, self.well)):
                 raise ValueError("[thermostat], [forcing], [vibration] and [well] act through events: they need integrator.kind = 'edmd'")
-            if self.friction is not None and self.friction.law == "mindlin" and self.friction.stiffness is None and self.contact.model != "hertz":
-                raise ValueError("friction.law = 'mindlin' takes its stiffness from a Hertz [contact]; give friction.stiffness for a dashpot")
-            if self.friction is not None and self.friction.law == "linear" and self.friction.stiffness is None:
-                raise ValueError("friction.law = 'linear' needs friction.stiffness (the tangential spring constant k_t)")
+            soft = self.contact.model
         elif self.contact is not None:
             raise ValueError("[contact] is used by integrator.kind = 'dem' only")
-        elif self.friction is not None:
-            raise ValueError("[friction] is used by integrator.kind = 'dem' only (frictional contacts of soft particles)")
+        elif self.friction is not None and self.collision.rule != "emdstar":
+            raise ValueError("[friction] (frictional contacts of soft particles) needs integrator.kind = 'dem' or collision.rule = 'emdstar'")
+        else:
+            soft = self.collision.contact
+        if self.friction is not None and self.friction.law == "mindlin" and self.friction.stiffness is None and soft != "hertz":
+            raise ValueError("friction.law = 'mindlin' takes its stiffness from a Hertz contact law; give friction.stiffness for a dashpot")
+        if self.friction is not None and self.friction.law == "linear" and self.friction.stiffness is None:
+            raise ValueError("friction.law = 'linear' needs friction.stiffness (the tangential spring constant k_t)")
+        if self.collision.rule == "emdstar" and self.collision.beta is not None and self.friction is None:
+            raise ValueError("collision.beta of rule 'emdstar' is the sticking restitution of frictional contacts: it needs a [friction] section")
         return self
 
 
@@ -603,6 +611,8 @@ rule = "elastic"          # "inelastic" (e_n), "rough" (e_n, beta or e_t = -beta
 # A = 1e-5
 # tables = "default"      # emdstar: "default" (shipped tables), "exact" (solve every contact) or a table file
 # communication = true    # emdstar: exception b) also ends the former partner's pending contact
+#                         # emdstar with a [friction] section: frictional contacts with spins (beta: the
+#                         #   sticking restitution of the instantaneous fallback; default from the laws)
 
 [walls]
 axes = []                 # axes closed by hard walls at +-L/2, e.g. ["z"]; the others are periodic
@@ -663,7 +673,7 @@ kind = "edmd"             # "edmd" (event-driven, hard particles) or "dem" (forc
 # model = "dashpot"       # "dashpot": k, gamma (or e_n); "hertz": young, poisson, A
 # k = 1e4
 # e_n = 0.9
-# [friction]              # optional with kind = "dem": tangential spring + Coulomb slider, spins evolve
+# [friction]              # optional with kind = "dem" or rule = "emdstar": tangential spring + Coulomb slider, spins evolve
 # mu = 0.3                # Coulomb coefficient (inf: never slides)
 # law = "linear"          # "linear" (k_t = stiffness) or "mindlin" (k_t = stiffness * contact radius)
 # stiffness = 2857.0      # k_t; mindlin with a Hertz contact may leave it out (8 G_eff)

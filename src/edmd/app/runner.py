@@ -111,7 +111,7 @@ def build_simulation(cfg: Config, state: State | None = None) -> Simulation:
         )  # fmt: skip
     e = cfg.engine
     options = EngineOptions(neighbours=e.neighbours, skin=e.skin, resync_every=e.resync_every, events_per_bucket=e.events_per_bucket, debug=e.debug)
-    rule = cfg.collision.build(float(state.mass.mean()))
+    rule = cfg.collision.build(float(state.mass.mean()), None if cfg.friction is None else cfg.friction.build())
     walls = cfg.walls.build(cfg.collision.material(), getattr(rule, "contact", None))
     bath = None if cfg.thermostat is None else cfg.thermostat.build()
     kicks = None if cfg.forcing is None else cfg.forcing.build()

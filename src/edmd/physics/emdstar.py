@@ -130,7 +130,7 @@ class EMDStar:
             >>> from edmd.physics.contact import LinearDashpot
             >>> from edmd.physics.friction import Friction
             >>> rule = EMDStar(LinearDashpot(k=7.0), friction=Friction(mu=0.5, stiffness=2.0))
-            >>> round(rule.for_dim(3).fallback_beta, 12), round(rule.for_dim(2).fallback_beta, 6)
+            >>> round(rule.for_dim(3).fallback_beta, 6), round(rule.for_dim(2).fallback_beta, 6)
             (1.0, 0.972968)
         """
         if self.friction is None or self.fallback_beta is not None:
@@ -169,34 +169,41 @@ class EMDStar:
 
 
 def sticking_beta(contact: ContactModel, friction: Friction, inertia_factor: float = 0.4) -> float:
-    r"""Tangential restitution :math:`\beta_0` of a sticking contact of two equal particles (docs/physics.md §2.6).
+    r"""Tangential restitution :math:`\beta_0` of a sticking contact of two equal particles (docs/physics.md §2.6, §4.11).
 
-    The undamped tangential oscillator rides on the normal one: with the ratio :math:`r` of the
-    tangential to the normal stiffness and the mass ratio :math:`\mu/m_t = 1 + 1/q`
-    (:math:`I = qmR^2`, :math:`\mu R^2/I = 1/2q`; ``inertia_factor`` :math:`q = 2/5` for solid spheres, :math:`1/2` for disks),
-
-    .. math::
-        \beta_0 = -\cos\big(\pi\sqrt{r\,\mu/m_t}\big).
-
-    :math:`r = k_t/k` for a linear spring with a dashpot, and :math:`r = k_{t0}/(\tfrac32 a)` for
-    Mindlin with Hertz (both stiffnesses grow as :math:`\sqrt\xi`: :math:`2(1-\nu)/(2-\nu)` by default),
-    where the ratio is constant; exact for the dashpot without damping, an estimate otherwise.
-    Other pairings have no constant ratio: give ``fallback_beta``.
+    The contact-point velocity :math:`u` of a contact that never slides (:math:`\mu = \infty`)
+    oscillates on the spring while the normal motion lasts; :math:`\beta_0 = -u'/u_0`. It is
+    solved with the frictional two-body solver in the hard limit, undamped (normal and
+    tangential), for :math:`I = qmR^2` (``inertia_factor`` :math:`q = 2/5` for solid spheres,
+    :math:`1/2` for disks; :math:`\mu/m_t = 1 + 1/q`). It is a number of the laws alone when the
+    scaled spring :math:`\tilde k` is: a linear spring with a dashpot (:math:`\tilde k = k_t/k`,
+    then :math:`\beta_0 = -\cos(\pi\sqrt{\tilde k\,\mu/m_t})` exactly) or Mindlin with Hertz
+    (:math:`\tilde k = k_{t0}/a`, :math:`2(1-\nu)\cdot\tfrac32/(2-\nu)` by default). Other pairings
+    depend on the impact: give ``fallback_beta``. The result is clipped to :math:`[-1, 1]` (Mindlin's
+    spring, stiffening while it is loaded, can return slightly more than it took).
 
     Example:
         >>> from edmd.physics.contact import LinearDashpot
         >>> from edmd.physics.friction import Friction
-        >>> round(sticking_beta(LinearDashpot(k=7.0), Friction(mu=0.5, stiffness=2.0)), 12)   # k_t / k = 2/7: perfectly rough
+        >>> round(sticking_beta(LinearDashpot(k=7.0), Friction(mu=0.5, stiffness=2.0)), 6)   # k_t / k = 2/7: perfectly rough
         1.0
     """
     a = contact.constants()[0]
     if isinstance(contact, LinearDashpot) and friction.law == "linear":
-        r = friction.stiffness_for(contact) / a
+        k_scaled = friction.stiffness_for(contact) / a
     elif isinstance(contact, Hertz) and friction.law == "mindlin":
-        r = friction.stiffness_for(contact) / (1.5 * a)
+        k_scaled = friction.stiffness_for(contact) / a
     else:
-        raise EMDStarError(f"a {friction.law} spring with a {contact.name} contact has no constant stiffness ratio: give fallback_beta = ...")
-    return -math.cos(math.pi * math.sqrt(r * (1.0 + 1.0 / inertia_factor)))
+        raise EMDStarError(f"a {friction.law} spring with a {contact.name} contact has no sticking restitution of its own: give fallback_beta = ...")
+    kappa = 0.5 / inertia_factor
+    u0 = 1e-3
+    prm = np.array([contact.code, 0.0, 1e-9, friction.code, k_scaled, 0.0, math.inf, kappa, kappa, 1.0, 1.0])
+    state = np.zeros(_tf.N_STATE)
+    state[_tf.P : _tf.P + 2] = -1.0, u0
+    if not _tf.solve_frictional(prm, state, 1e-12, np.zeros((13, _tf.N_STATE)), np.zeros((3, _tf.N_STATE)), np.zeros(4)):
+        raise EMDStarError(f"the sticking contact of {contact!r} with {friction!r} did not solve: give fallback_beta = ...")
+    v_t = _tf._kinematics(prm, state)[17:20]
+    return min(1.0, max(-1.0, -float(v_t[1]) / u0))
 
 
 #: placeholder table arrays of the same types as a real table's (one compiled loop for all runs)
