@@ -2,16 +2,20 @@
 
 import doctest
 import math
+import zlib
 
 import numpy as np
 import pytest
 from reference import direct_two_spheres, random_contact
+from test_twobody_friction import random_collision, reference
 
 import edmd
 import edmd.physics.emdstar
 from edmd import Hertz, LinearDashpot, Simulation, State
-from edmd.physics.collide import Inelastic, RuleError, TC, Wall
+from edmd.physics.collide import Inelastic, Rough, RuleError, TC, Wall
 from edmd.physics.emdstar import EMDStar, EMDStarError
+from edmd.physics.friction import Friction
+from edmd.physics.twobody import collide_frictional
 
 CONTACTS = [
     (LinearDashpot(k=1e4, gamma=20.0), 1.0),
@@ -311,3 +315,152 @@ def test_dilute_gas_follows_force_based_md(model, dim):
     assert np.median(dist[2]) < np.median(dist[1]) / 4  # DEM's time-step error, not a difference of physics
     assert np.median(dist[0]) > 1e-3  # the instantaneous rule misses oblique contacts
     assert emd.temperature() == pytest.approx(fine.temperature(), rel=2e-3)
+
+
+# ---------------------------------------------------------------------------------------------
+# frictional contacts (docs/physics.md §4.8, §4.11)
+
+FRICTIONAL = {
+    "dashpot-linear": (LinearDashpot(k=1e5, gamma=20.0), Friction(mu=0.3, stiffness=3e4, damping=0.5)),
+    "hertz-mindlin": (Hertz(young=1e7, poisson=0.3, A=1e-5), Friction(mu=0.3, law="mindlin")),
+}
+
+
+def spinning_pair(dim, shift, rng):
+    """Two particles of unequal mass and radius that touch at t = 0.3 after free flight, with spins;
+    ``shift`` moves the pair so that the contact straddles the periodic faces at +-5. Returns the
+    state (wrapped into the box), the collision, the lead time and the offset the wrapping took."""
+    x1, x2, v1, v2, w1, w2, m, R = random_collision(rng, dim)
+    x1, x2 = x1 - x1 + shift, x2 - x1 + shift  # (x1 at the shift)
+    lead = 0.3
+    start = np.array([x1 - v1 * lead, x2 - v2 * lead])
+    wrapped = (start + 5.0) % 10.0 - 5.0
+    state = State(position=wrapped, velocity=[v1, v2], angular_velocity=[w1, w2], radius=R, mass=m, box=[10.0] * dim)
+    return state, (x1, x2, v1, v2, w1, w2, m, R), lead, start - wrapped
+
+
+@pytest.mark.parametrize("shift", [0.0, 4.7], ids=["inside", "across the periodic face"])
+def test_frictional_contact_matches_a_lab_frame_integration(dim, shift):
+    """A and B events of a frictional contact: afterwards positions, velocities and spins equal an
+    independent integration of the same laws in lab coordinates (scipy DOP853, rtol 1e-13) to 1e-8."""
+    contact, friction = FRICTIONAL["dashpot-linear"]
+    rng = np.random.default_rng(zlib.crc32(f"frictional eMD* {dim} {shift}".encode()))
+    for _ in range(2):
+        state, (x1, x2, v1, v2, w1, w2, m, R), lead, offset = spinning_pair(dim, np.full(dim, shift), rng)
+        sim = Simulation(state, collision=EMDStar(contact, friction=friction, rtol=1e-12))
+        y, t_c = reference(contact, friction, x1, x2, v1, v2, w1, w2, m, R, dim)
+        after = 2.0 * t_c
+        sim.run(until_time=lead + t_c + after)
+        s = sim.state
+        assert not s.has_pending and sim.engine.emd_counters()["emd_contacts"] == 1
+        speed = np.abs(np.r_[v1, v2]).max() + max(np.abs(w1).max() * R[0], np.abs(w2).max() * R[1])
+        for k in range(2):
+            v = y[6 + 3 * k : 6 + 3 * k + dim]
+            assert np.abs(s.velocity[k] - v).max() < 1e-8 * speed
+            assert np.abs(s.unwrapped_position[k] + offset[k] - (y[3 * k : 3 * k + dim] + v * after)).max() < 1e-8 * speed * t_c
+            w = y[14 + 3 * k] if dim == 2 else y[12 + 3 * k : 15 + 3 * k]
+            assert np.abs(s.angular_velocity[k] - w).max() * R[k] < 1e-8 * speed
+
+
+@pytest.mark.parametrize("law", list(FRICTIONAL))
+def test_frictional_gas_conserves_momentum_and_balances_energy(law, dim):
+    """A dense frictional soft gas with every exception: momentum stays zero, and kinetic + rotational
+    + dissipated energy stays constant to round-off (the A event books the loss, spins included)."""
+    contact, friction = FRICTIONAL[law]
+    state = edmd.maxwell_boltzmann(edmd.lattice(64 if dim == 2 else 125, 0.3, dim=dim), 1.0, seed=3, spin=True)
+    soft = Hertz(young=2e3, poisson=0.3, A=2e-3) if law == "hertz-mindlin" else LinearDashpot(k=2e3, gamma=2.0)
+    if law == "dashpot-linear":
+        friction = Friction(mu=0.3, stiffness=2e3 * 2 / 7, damping=0.5)
+    sim = Simulation(state, collision=EMDStar(soft, friction=friction))
+    e0 = state.kinetic_energy() + state.rotational_energy()
+    sim.run(until_time=5.0)
+    c = sim.engine.emd_counters()
+    assert c["emd_contacts"] > 100 and c["emd_exceptions_b"] > 0 and c["emd_exceptions_a"] > 0 and c["emd_fallbacks"] > 0
+    s = sim.state
+    np.testing.assert_allclose(s.momentum(), 0.0, atol=1e-12)
+    assert s.kinetic_energy() + s.rotational_energy() + sim.totals().dissipated == pytest.approx(e0, rel=1e-11)
+    assert s.rotational_energy() != state.rotational_energy()
+
+
+def test_frictional_exception_a_is_walton_with_the_sticking_restitution():
+    """a) with friction: the instantaneous rough rule (Walton) with the central e_n(v_n), the
+    friction's mu and the sticking beta_0 of the laws, as a Rough rule of those numbers gives it."""
+    contact = Hertz(young=50.0, poisson=0.3, A=0.01)
+    friction = Friction(mu=0.2, law="mindlin")
+    state = exception_a_state()
+    rule = EMDStar(contact, tables="exact", friction=friction)
+    sim = Simulation(state, collision=rule)
+    sim.run(max_events=1)
+    c = sim.engine.emd_counters()
+    assert c["emd_exceptions_a"] == 1 and c["emd_fallbacks"] == 1 and c["emd_contacts"] == 0
+    beta = rule.for_dim(3).fallback_beta
+    assert beta == pytest.approx(edmd.physics.emdstar.sticking_beta(contact, friction), rel=0)
+    walton = Simulation(state, collision=Rough(e_n=contact, beta=beta, mu=0.2))
+    walton.run(max_events=1)
+    for name in ("position", "velocity", "angular_velocity"):
+        np.testing.assert_array_equal(getattr(sim.state, name), getattr(walton.state, name))
+    assert np.abs(sim.state.angular_velocity).max() > 0.01  # the fallback is rough
+
+
+@pytest.mark.parametrize("q", [0.4, 0.5])
+def test_sticking_restitution_of_the_laws(q):
+    """beta_0: exact for an undamped linear spring on a dashpot, -cos(pi sqrt(k_t/k (1 + 1/q)));
+    Mindlin on Hertz agrees with a (hard) two-body solve of a head-on collision with a little slip."""
+    sticking_beta = edmd.physics.emdstar.sticking_beta
+    assert sticking_beta(LinearDashpot(k=1e6), Friction(mu=1.0, stiffness=2e5), q) == pytest.approx(-math.cos(math.pi * math.sqrt(0.2 * (1 + 1 / q))), abs=1e-8)
+    hertz, mindlin = Hertz(young=1e9, poisson=0.3, A=0.0), Friction(mu=math.inf, law="mindlin")  # Lambda ~ 3e-4
+    dim = 3 if q == 0.4 else 2
+    x1, x2 = np.zeros(dim), -np.eye(dim)[0]
+    v1 = np.zeros(dim)
+    v1[:2] = -0.5, 1e-3
+    w = np.zeros(3) if dim == 3 else 0.0
+    end = collide_frictional(hertz, mindlin, x1, x2, v1, 0.5 * np.eye(dim)[0], w, w, 1.0, 1.0, 0.5, 0.5)
+    spin_z = (end.omega1 if dim == 2 else end.omega1[2]) + (end.omega2 if dim == 2 else end.omega2[2])
+    u_end = (end.v1 - end.v2)[1] - 0.5 * spin_z  # contact-point velocity along y: g - R (w1 + w2) x e_x
+    assert -u_end / 1e-3 == pytest.approx(sticking_beta(hertz, mindlin, q), abs=1e-3)  # O(Lambda)
+
+
+def test_frictional_settings_name_the_problem():
+    with pytest.raises(EMDStarError, match="friction must be"):
+        EMDStar(Hertz(1e7, 0.3), friction=0.3)
+    with pytest.raises(EMDStarError, match="needs friction"):
+        EMDStar(Hertz(1e7, 0.3), fallback_beta=0.5)
+    with pytest.raises(EMDStarError, match=r"fallback_beta must be a number in \[-1, 1\]"):
+        EMDStar(Hertz(1e7, 0.3), friction=Friction(mu=0.3, law="mindlin"), fallback_beta=2.0)
+    with pytest.raises(EMDStarError, match="give fallback_beta"):
+        EMDStar(Hertz(1e7, 0.3), friction=Friction(mu=0.3, stiffness=1e4))
+    with pytest.raises(EMDStarError, match="Mindlin friction takes its stiffness from a Hertz"):
+        EMDStar(LinearDashpot(k=1e4), friction=Friction(mu=0.3, law="mindlin"))
+    EMDStar(Hertz(1e7, 0.3), friction=Friction(mu=0.3, stiffness=1e4), fallback_beta=0.2)  # given: fine
+
+
+@pytest.mark.parametrize("law", list(FRICTIONAL))
+def test_frictional_gas_follows_force_based_md(law, dim):
+    """Same initial state with spins: eMD* particles follow the frictional DEM trajectories, which
+    converge to them as dt -> 0 (positions, velocities and spins; medians over the particles that
+    had a contact and are not in one now)."""
+    state = edmd.maxwell_boltzmann(edmd.random_packing(1000, 0.02, dim=dim, seed=4), 1.0, seed=5, spin=True)
+    if law == "hertz-mindlin":  # t_c ~ 0.01, e_n ~ 0.9 at the thermal speed
+        contact, friction = Hertz(young=2.5e6, poisson=0.3, A=2e-4), Friction(mu=0.3, law="mindlin")
+    else:
+        contact = LinearDashpot.from_restitution(0.9, k=4.9e4, mass=1.0)
+        friction = Friction(mu=0.3, stiffness=4.9e4 * 2 / 7, damping=0.5)
+    emd = Simulation(state, collision=EMDStar(contact, friction=friction))
+    emd.engine.enable_log()
+    emd.run(until_time=1.0)
+    collided = np.zeros(state.n, bool)
+    collided[emd.engine.take_log()[:, 1:3].astype(int).ravel()] = True
+    sel = collided & (emd.state.pending_partner < 0)
+    assert sel.sum() > 60
+    errors = []
+    for steps in (100, 400):
+        dem = edmd.DEMSimulation(state, contact, steps_per_contact=steps, friction=friction)
+        dem.run(until_time=1.0)
+        a, b = emd.state, dem.state
+        dx = np.linalg.norm(a.unwrapped_position - b.unwrapped_position, axis=1)[sel]
+        dv = np.linalg.norm(a.velocity - b.velocity, axis=1)[sel]
+        dw = np.abs(a.angular_velocity - b.angular_velocity).reshape(state.n, -1).max(axis=1)[sel]
+        errors.append([np.median(dx), np.median(dv), np.median(dw)])
+    coarse, fine = np.array(errors)
+    assert np.all(fine < 1e-5)
+    assert np.all(fine < coarse / 4)  # the DEM's time-step error, not a difference of physics

@@ -228,13 +228,35 @@ def test_config_friction_section(dim, tmp_path):
     assert sim.friction == Friction(mu=0.3, law="mindlin", damping=0.5)
     sim.run(until_time=0.05)
     assert sim.params["friction"]["law"] == "mindlin"
-    with pytest.raises(ConfigError, match=r"\[friction\] is used by integrator.kind = 'dem' only"):
+    with pytest.raises(ConfigError, match=r"\[friction\] .* needs integrator.kind = 'dem' or collision.rule = 'emdstar'"):
         parse_config(BASE.format(dim=dim, kind="edmd") + "[friction]\nmu = 0.3\nstiffness = 1.0\n")
     with pytest.raises(ConfigError, match="needs friction.stiffness"):
         parse_config(BASE.format(dim=dim, kind="dem") + '[contact]\nmodel = "dashpot"\nk = 1e4\n[friction]\nmu = 0.3\n')
     with pytest.raises(ConfigError, match="mindlin' takes its stiffness from a Hertz"):
         parse_config(BASE.format(dim=dim, kind="dem") + '[contact]\nmodel = "dashpot"\nk = 1e4\n[friction]\nmu = 0.3\nlaw = "mindlin"\n')
     assert parse_config(BASE.format(dim=dim, kind="dem") + '[contact]\nmodel = "dashpot"\nk = 1e4\n[friction]\nmu = inf\nstiffness = 1e3\n').friction.mu == math.inf
+
+
+EMD = '[collision]\nrule = "emdstar"\ncontact = "hertz"\nyoung = 1e5\npoisson = 0.3\nA = 1e-4\n'
+
+
+@pytest.mark.parametrize("dim", DIMS)
+def test_config_frictional_emdstar(dim):
+    """``[friction]`` with rule 'emdstar': frictional eMD* contacts; ``collision.beta`` is the fallback's beta_0."""
+    from edmd.physics.emdstar import EMDStar
+
+    cfg = parse_config(BASE.format(dim=dim, kind="edmd") + EMD + '[friction]\nmu = 0.3\nlaw = "mindlin"\n')
+    sim = build_simulation(cfg)
+    rule = sim.engine.rule
+    assert isinstance(rule, EMDStar) and rule.friction == Friction(mu=0.3, law="mindlin")
+    assert rule.fallback_beta == EMDStar(rule.contact, friction=rule.friction).for_dim(dim).fallback_beta
+    sim.run(until_time=0.05)
+    cfg = parse_config(BASE.format(dim=dim, kind="edmd") + EMD + 'beta = 0.25\n[friction]\nmu = 0.3\nlaw = "mindlin"\n')
+    assert build_simulation(cfg).engine.rule.fallback_beta == 0.25
+    with pytest.raises(ConfigError, match=r"collision.beta of rule 'emdstar' .* needs a \[friction\] section"):
+        parse_config(BASE.format(dim=dim, kind="edmd") + EMD + "beta = 0.25\n")
+    with pytest.raises(ConfigError, match="needs friction.stiffness"):
+        parse_config(BASE.format(dim=dim, kind="edmd") + EMD + "[friction]\nmu = 0.3\n")
 
 
 def test_cli_runs_frictional_dem(tmp_path):

@@ -118,15 +118,16 @@ def test_granular_run_with_tc_walls_and_gravity_restarts_bit_for_bit(tmp_path, d
     assert whole.totals().wall_collisions > 50
 
 
-def test_emdstar_run_with_pending_contacts_restarts_bit_for_bit(tmp_path, dim):
+@pytest.mark.parametrize("friction", [None, edmd.Friction(mu=0.3, law="mindlin")], ids=["smooth", "frictional"])
+def test_emdstar_run_with_pending_contacts_restarts_bit_for_bit(tmp_path, dim, friction):
     """eMD* with walls and gravity: pending contacts (increments, B times, partners) survive a checkpoint."""
     from edmd.physics.emdstar import EMDStar
 
     periodic = [True] * (dim - 1) + [False]
-    s = edmd.maxwell_boltzmann(edmd.random_packing(300, 0.2, dim=dim, periodic=periodic, seed=9), 1.0, seed=10)
+    s = edmd.maxwell_boltzmann(edmd.random_packing(300, 0.2, dim=dim, periodic=periodic, seed=9), 1.0, seed=10, spin=friction is not None)
     g = np.zeros(dim)
     g[-1] = -0.5
-    physics = {"collision": EMDStar(edmd.Hertz(young=2e3, poisson=0.3, A=2e-3)), "gravity": g}
+    physics = {"collision": EMDStar(edmd.Hertz(young=2e3, poisson=0.3, A=2e-3), friction=friction), "gravity": g}
     whole = _run(tmp_path / "whole", s, 4.0, physics=physics)
     _run(tmp_path / "part", s, 2.3, physics=physics)
     ck = read_checkpoint(tmp_path / "part" / "ck.gsd")
