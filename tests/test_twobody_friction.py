@@ -339,6 +339,19 @@ def test_matches_the_dem(case, dim):
     assert errors[1] < errors[0] / 2
 
 
+def test_a_contact_at_the_margin_of_sliding_finishes():
+    """Near its end this contact's trial force tracks the shrinking Coulomb limit (sticking says
+    "slide", sliding says "stick", by 1e-7): it must slide on at the limit, not flip forever at one
+    instant, and agree with a solve at another tolerance."""
+    contact, friction = Hertz(young=1e7, poisson=0.3, A=1e-5), Friction(mu=0.3, stiffness=1e5, damping=0.5)
+    v1 = [1.1136513534513286, -0.9165392346644177, -2.019045793541647]
+    w1, w2 = [-0.7883616943116903, 0.3298516141597998, -0.8859825857853795], [0.5347530670366708, 0.3885269746015548, 1.266829518034956]
+    ends = [collide_frictional(contact, friction, [0, 0, 0], [1, 0, 0], v1, [0, 0, 0], w1, w2, 1.0, 1.0, 0.5, 0.5, rtol=rtol) for rtol in (1e-10, 1e-12)]
+    assert ends[0].sliding
+    for name in ("v1", "v2", "omega1", "omega2"):
+        np.testing.assert_allclose(getattr(ends[0], name), getattr(ends[1], name), rtol=0, atol=1e-7)
+
+
 def test_bad_input():
     c, f = LinearDashpot(k=1e5), Friction(mu=0.3, stiffness=1e4)
     with pytest.raises(ContactError, match="must touch"):

@@ -67,6 +67,10 @@ _MAX_STEPS = 200000
 _MAX_SWITCHES = 10000
 #: a switching function this far below zero at the start of a step means the mode has ended there
 _SWITCH_TOL = 1e-9
+#: a contact at the margin (the trial force tracks the Coulomb limit: both modes give the limit
+#: force, and rounding flips between them at one instant) slides until its switching function
+#: falls this far below zero
+_MARGIN = 1e-6
 
 
 @leaf
@@ -235,15 +239,19 @@ def _step(prm, mode, x0, h, K, xs, x1, rtol, atol):
     e5 = 0.0
     e3 = 0.0
     for q in range(n):
-        a5, a3 = error_terms(K, q, atol + rtol * max(abs(x0[q]), abs(x1[q])))
+        # the spring / tangential force against its own scale (O(1)): near the end of a sliding
+        # contact the force shrinks with F_n while its direction turns ever faster, which moves
+        # nothing else once the force is small
+        floor = 1.0 if q >= Z else 0.0
+        a5, a3 = error_terms(K, q, atol + rtol * max(abs(x0[q]), abs(x1[q]), floor))
         e5 += a5 * a5
         e3 += a3 * a3
     return error_norm(e5, e3, h, n), g_end, g_sw
 
 
 @leaf
-def _root(prm, mode, x0, h, g0, g1, which, K, xs, x1, rtol, atol):
-    """Step size in ``(0, h]`` at which event function ``which`` (0: end, 1: switch) crosses zero.
+def _root(prm, mode, x0, h, g0, g1, which, shift, K, xs, x1, rtol, atol):
+    """Step size in ``(0, h]`` at which event function ``which`` (0: end, 1: switch, plus ``shift``) crosses zero.
 
     Illinois-modified regula falsi on full DOP853 steps from ``x0`` (``g0 > 0 >= g1``). Returns
     ``(s, g_end, g_switch)`` at the root (the smallest size found on the far side); ``x1`` and
@@ -257,7 +265,7 @@ def _root(prm, mode, x0, h, g0, g1, which, K, xs, x1, rtol, atol):
         if not (lo < s < hi):
             s = 0.5 * (lo + hi)
         _err, ge, gs = _step(prm, mode, x0, s, K, xs, x1, rtol, atol)
-        gv = ge if which == 0 else gs
+        gv = ge if which == 0 else gs + shift
         if gv > 0.0:
             lo, glo = s, gv
             if side == 1:
@@ -322,6 +330,19 @@ def _start_mode(prm, s, K, xs):
     return SLIDE
 
 
+@leaf
+def _switch_at(prm, mode, s, t, t_switch, repeats):
+    """Switch the mode at ``t``; returns ``(mode, repeats, margin)``. Switches that keep coming at
+    one instant mark a contact at the margin of sliding: it then slides, with :data:`_MARGIN`."""
+    repeats = repeats + 1 if t <= t_switch + 1e-14 * (1.0 + t) else 0
+    mode = _switch(prm, mode, s)
+    if repeats >= 2:
+        if mode == STICK:
+            mode = _switch(prm, mode, s)
+        return mode, repeats, _MARGIN
+    return mode, repeats, 0.0
+
+
 @jit
 def solve_frictional(prm, s, rtol, K, W, info):
     """Integrate one frictional contact from first touch (``s``: the initial state, ``z = 0``) to its end.
@@ -338,12 +359,16 @@ def solve_frictional(prm, s, rtol, K, W, info):
     mode = _start_mode(prm, s, K, xs)
     t = 0.0
     switches = 0
+    t_switch = -1.0  # time of the last switch, and how many came at that very time
+    repeats = 0
+    margin = 0.0  # how far below zero the switching function may go (nonzero at a margin)
     g_end, g_sw = rhs(prm, mode, s, K[0])
     h = 0.05 * rtol**0.125 if int(prm[P_MODEL]) == MODEL_HERTZ else 0.1 * rtol**0.125
     c = prm[P_C]
     for step in range(_MAX_STEPS):
-        if g_sw < -_SWITCH_TOL:  # the mode does not hold from here on (e.g. a slide that sticks at once)
-            mode = _switch(prm, mode, s)
+        if g_sw < -max(_SWITCH_TOL, margin):  # the mode does not hold from here on (e.g. a slide that sticks at once)
+            mode, repeats, margin = _switch_at(prm, mode, s, t, t_switch, repeats)
+            t_switch = t
             switches += 1
             if switches > _MAX_SWITCHES:
                 return False
@@ -357,27 +382,30 @@ def solve_frictional(prm, s, rtol, K, W, info):
             continue
         h_next = h * (_MAX_FACTOR if err == 0.0 else min(_MAX_FACTOR, _SAFETY * err**-0.125))
         ends = ge1 <= 0.0 and (g_end > 0.0 or t > 0.0 or c == 0.0)
-        flips = gs1 < 0.0
+        flips = gs1 < -margin
         if ends:  # where does the force vanish, and does the mode hold until then?
-            h, ge1, gs1 = _root(prm, mode, x0, h, max(g_end, 1e-300), ge1, 0, K, xs, x1, rtol, atol)
-            flips = gs1 < 0.0
+            h, ge1, gs1 = _root(prm, mode, x0, h, max(g_end, 1e-300), ge1, 0, 0.0, K, xs, x1, rtol, atol)
+            flips = gs1 < -margin
             if not flips:
                 for q in range(N_STATE):
                     s[q] = x1[q]
                 info[I_TAU], info[I_SWITCHES], info[I_MODE], info[I_STEPS] = t + h, switches, mode, step + 1
                 return True
         if flips:  # the switch, then the other mode from there
-            h, ge1, gs1 = _root(prm, mode, x0, h, max(g_sw, 1e-300), gs1, 1, K, xs, x1, rtol, atol)
+            h, ge1, gs1 = _root(prm, mode, x0, h, max(g_sw + margin, 1e-300), gs1 + margin, 1, margin, K, xs, x1, rtol, atol)
         t += h
         for q in range(N_STATE):
             s[q] = x1[q]
         if flips:
-            mode = _switch(prm, mode, s)
+            mode, repeats, margin = _switch_at(prm, mode, s, t, t_switch, repeats)
+            t_switch = t
             switches += 1
             if switches > _MAX_SWITCHES:
                 return False
             g_end, g_sw = rhs(prm, mode, s, K[0])
         else:
+            if gs1 >= 0.0:
+                margin = 0.0
             g_end, g_sw = ge1, gs1
             for q in range(N_STATE):
                 K[0, q] = K[12, q]
