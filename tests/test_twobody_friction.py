@@ -339,6 +339,23 @@ def test_matches_the_dem(case, dim):
     assert errors[1] < errors[0] / 2
 
 
+@pytest.mark.parametrize("law", ["dashpot-linear", "hertz-mindlin", "hertz-linear"])
+def test_accuracy_follows_the_tolerance(law):
+    """At rtol 1e-6 / 1e-9 the end state agrees with rtol 1e-13 to 1e-6 / 1e-9 of the speeds, over
+    random collisions with switches: also where the solver holds a small sliding force's direction
+    (Hertz from the touch, every sliding contact near its end)."""
+    contact, friction = {**LAWS, **DEM_CASES, "hertz-mindlin": (DEM_CASES["hertz-mindlin"][0], Friction(mu=0.3, law="mindlin"))}[law]
+    rng = np.random.default_rng(zlib.crc32(law.encode()))
+    for _ in range(8):
+        x1, x2, v1, v2, w1, w2, m, R = random_collision(rng, 3)
+        ref = collide_frictional(contact, friction, x1, x2, v1, v2, w1, w2, m[0], m[1], R[0], R[1], rtol=1e-13)
+        speed = np.abs(np.r_[v1, v2]).max() + max(np.abs(w1).max() * R[0], np.abs(w2).max() * R[1])
+        for rtol in (1e-6, 1e-9):
+            end = collide_frictional(contact, friction, x1, x2, v1, v2, w1, w2, m[0], m[1], R[0], R[1], rtol=rtol)
+            got = np.r_[end.v1, end.v2, end.omega1 * R[0], end.omega2 * R[1]] - np.r_[ref.v1, ref.v2, ref.omega1 * R[0], ref.omega2 * R[1]]
+            assert np.abs(got).max() < rtol * speed
+
+
 def test_a_contact_at_the_margin_of_sliding_finishes():
     """Near its end this contact's trial force tracks the shrinking Coulomb limit (sticking says
     "slide", sliding says "stick", by 1e-7): it must slide on at the limit, not flip forever at one

@@ -53,7 +53,7 @@ P_MODEL, P_C, P_LAM, P_LAW, P_KT, P_XT, P_MU, P_KAPPA1, P_KAPPA2, P_LAMBDA1, P_L
 #: the state: y, p, u1, u2 and z (sticking) or S (sliding)
 Y, P, U1, U2, Z = 0, 3, 6, 9, 12
 N_STATE = 15
-STICK, SLIDE = 0, 1
+STICK, SLIDE, FROZEN = 0, 1, 2
 #: what solve_frictional returns in ``info``: duration, switches, final mode, steps
 I_TAU, I_SWITCHES, I_MODE, I_STEPS = range(4)
 #: the scratch of :func:`frictional_update` ``(SCRATCH_ROWS, N_STATE)``: rows 0-12 the stages ``K``,
@@ -157,7 +157,9 @@ def rhs(prm, mode, s, ds):
         ft = math.sqrt(ftx * ftx + fty * fty + ftz * ftz)
         lim = mu * fn
         g_switch = (lim - ft) / (lim + ft) if lim + ft > 0.0 and mu < math.inf else 1.0
-    else:
+    else:  # (frozen: z holds the force's fixed direction, kept in the tangent plane)
+        zn = zx * nx + zy * ny + zz * nz if mode == FROZEN else 0.0
+        zx, zy, zz = zx - zn * nx, zy - zn * ny, zz - zn * nz
         sm = math.sqrt(zx * zx + zy * zy + zz * zz)
         if sm > 0.0:
             sx, sy, sz = zx / sm, zy / sm, zz / sm
@@ -208,6 +210,9 @@ def rhs(prm, mode, s, ds):
     dl = mu * dfn
     scale = abs(qs) + abs(dl)
     g_switch = (qs - dl) / scale if scale > 0.0 else 1.0
+    if mode == FROZEN:  # the direction held (see _freeze)
+        ds[Z], ds[Z + 1], ds[Z + 2] = 0.0, 0.0, 0.0
+        return g_end, g_switch
     sn = dnx * zx + dny * zy + dnz * zz
     ds[Z] = dl * sx + (qx - qs * sx) - sn * nx
     ds[Z + 1] = dl * sy + (qy - qs * sy) - sn * ny
@@ -323,11 +328,51 @@ def _start_mode(prm, s, K, xs):
         return STICK
     _switch(prm, STICK, xs)  # xs[Z:] = the trial force
     fm = math.sqrt(xs[Z] ** 2 + xs[Z + 1] ** 2 + xs[Z + 2] ** 2)
-    model = int(prm[P_MODEL])
-    fn0 = 0.0 if model == MODEL_HERTZ else prm[P_C]  # F_n at X = 0, X' = 1
+    if int(prm[P_MODEL]) == MODEL_HERTZ:  # no force yet: its direction held while it is small
+        for q in range(3):
+            s[Z + q] = xs[Z + q] / fm
+        return FROZEN
     for q in range(3):
-        s[Z + q] = prm[P_MU] * fn0 * xs[Z + q] / fm
+        s[Z + q] = prm[P_MU] * prm[P_C] * xs[Z + q] / fm  # F_n = c at X = 0, X' = 1
     return SLIDE
+
+
+@leaf
+def _freeze(s, limit):
+    r"""Whether a sliding force ``s[Z:]`` is below ``limit``; if so, ``s[Z:]`` becomes its direction.
+
+    Near the end of a sliding contact the force :math:`\mu\tilde F_n` vanishes while its
+    direction turns at a rate ~ :math:`|\mathbf Q|/|\mathbf S|`: resolving that costs ever smaller
+    steps (most of a contact's steps) and moves little. Kept fixed from a force :math:`f` on,
+    the direction errs by :math:`O(1)` at worst over the time :math:`O(f)` the force takes to
+    vanish: an impulse :math:`O(f^2)` (measured), so the caller's limit is
+    :math:`\mu\,\mathrm{rtol}^{1/2}`.
+    """
+    m = math.sqrt(s[Z] ** 2 + s[Z + 1] ** 2 + s[Z + 2] ** 2)
+    if not 0.0 < m < limit:
+        return False
+    for q in range(Z, N_STATE):
+        s[q] /= m
+    return True
+
+
+@leaf
+def _thaw(prm, s, limit):
+    r"""Whether the sliding force of a contact that started sliding (Hertz: no force at the touch,
+    its direction held) has reached ``limit``; if so, ``s[Z:]`` becomes the force.
+
+    Held from the touch for the time :math:`T \sim (f/\mu)^{2/3}` the force :math:`f` takes to
+    grow (:math:`\tilde F_n \sim \tau^{3/2}`), the direction errs by :math:`O(T)`: an impulse
+    :math:`\sim f^{7/3}\mu^{-4/3}`, so the caller's limit is :math:`\mu\,\mathrm{rtol}^{3/7}`.
+    """
+    fn = _kinematics(prm, s)[6]
+    f = prm[P_MU] * fn
+    if f < limit:
+        return False
+    m = math.sqrt(s[Z] ** 2 + s[Z + 1] ** 2 + s[Z + 2] ** 2)
+    for q in range(Z, N_STATE):
+        s[q] *= f / m
+    return True
 
 
 @leaf
@@ -362,6 +407,9 @@ def solve_frictional(prm, s, rtol, K, W, info):
     t_switch = -1.0  # time of the last switch, and how many came at that very time
     repeats = 0
     margin = 0.0  # how far below zero the switching function may go (nonzero at a margin)
+    freeze = prm[P_MU] * math.sqrt(rtol)  # a sliding force this small keeps its direction to the end
+    thaw = prm[P_MU] * rtol ** (3.0 / 7.0)  # a Hertz contact sliding from the start: its direction held until the force is this large
+    fmax = 0.0  # the largest X + cX' so far (the force decreases once below it)
     g_end, g_sw = rhs(prm, mode, s, K[0])
     h = 0.05 * rtol**0.125 if int(prm[P_MODEL]) == MODEL_HERTZ else 0.1 * rtol**0.125
     c = prm[P_C]
@@ -389,6 +437,10 @@ def solve_frictional(prm, s, rtol, K, W, info):
             if not flips:
                 for q in range(N_STATE):
                     s[q] = x1[q]
+                if mode == FROZEN:  # the force, zero at the end, along its direction
+                    mode = SLIDE
+                    for q in range(Z, N_STATE):
+                        s[q] = 0.0
                 info[I_TAU], info[I_SWITCHES], info[I_MODE], info[I_STEPS] = t + h, switches, mode, step + 1
                 return True
         if flips:  # the switch, then the other mode from there
@@ -409,6 +461,13 @@ def solve_frictional(prm, s, rtol, K, W, info):
             g_end, g_sw = ge1, gs1
             for q in range(N_STATE):
                 K[0, q] = K[12, q]
+            if mode == SLIDE and g_end < fmax and _freeze(s, freeze):
+                mode = FROZEN
+                g_end, g_sw = rhs(prm, mode, s, K[0])
+            elif mode == FROZEN and g_end >= fmax and _thaw(prm, s, thaw):
+                mode = SLIDE
+                g_end, g_sw = rhs(prm, mode, s, K[0])
+        fmax = max(fmax, g_end)
         h = h_next
     return False
 
