@@ -12,12 +12,16 @@ collisions per particle) by
 
 It also runs elastic hard spheres (plain EDMD) from the same state: eMD*'s collision rate
 relative to it. Compilation excluded (one warm-up run each); medians of ``--repeats``.
-Results with machine information go to ``results/emdstar.json``.
+Results with machine information go to ``results/emdstar.json``. ``--friction MU`` gives every
+contact Hertz-Mindlin friction with that coefficient (eMD*: the frictional two-body solver per
+contact; DEM: the same laws; spins at the same temperature as the translation at the start),
+results in ``results/emdstar_friction.json``.
 
 Usage::
 
     python benchmarks/bench_emdstar.py
     python benchmarks/bench_emdstar.py --n 4000 --eta 0.01 0.05 --repeats 1
+    python benchmarks/bench_emdstar.py --friction 0.3 --eta 0.05 --out benchmarks/results/emdstar_friction.json
 """
 
 from __future__ import annotations
@@ -35,10 +39,10 @@ RADIUS, DENSITY = 1e-3, 2500.0
 CONTACT = edmd.Hertz(young=1e8, poisson=0.3, A=1e-6)
 
 
-def gas(n: int, eta: float) -> edmd.State:
+def gas(n: int, eta: float, spin: bool = False) -> edmd.State:
     state = edmd.random_packing(n, eta, dim=3, radius=RADIUS, density=DENSITY, seed=1)
     kT = float(state.mass[0]) / 3.0  # <v^2> = 1 (m/s)^2
-    return edmd.maxwell_boltzmann(state, kT, seed=2)
+    return edmd.maxwell_boltzmann(state, kT, seed=2, spin=spin)
 
 
 def timed(make, t_end: float, repeats: int) -> tuple[float, object]:
@@ -53,17 +57,19 @@ def timed(make, t_end: float, repeats: int) -> tuple[float, object]:
     return statistics.median(times), sim
 
 
-def bench(n: int, eta: float, repeats: int) -> dict:
-    state = gas(n, eta)
-    probe = edmd.Simulation(state, collision=EMDStar(CONTACT))
+def bench(n: int, eta: float, repeats: int, friction=None) -> dict:
+    state = gas(n, eta, spin=friction is not None)
+    rule = EMDStar(CONTACT, friction=friction)
+    probe = edmd.Simulation(state, collision=rule)
     probe.run(max_events=20 * n)
     rate = 2.0 * probe.collisions / (n * probe.time)  # collisions per particle and second
     t_end = 2.0 / rate
-    emd_s, emd = timed(lambda: edmd.Simulation(state, collision=EMDStar(CONTACT)), t_end, repeats)
+    emd_s, emd = timed(lambda: edmd.Simulation(state, collision=rule), t_end, repeats)
     hs_s, hs = timed(lambda: edmd.Simulation(state), t_end, repeats)
     row = {
         "n": n,
         "eta": eta,
+        "friction_mu": None if friction is None else friction.mu,
         "physical_time_s": t_end,
         "collisions_per_particle": 2.0 * emd.collisions / n,
         "emd_seconds": emd_s,
@@ -75,7 +81,7 @@ def bench(n: int, eta: float, repeats: int) -> dict:
     }
     row["emd_rate_relative_to_hard_spheres"] = row["emd_collisions_per_second"] / row["hard_sphere_collisions_per_second"]
     for spc in (50, 400):
-        dem_s, dem = timed(lambda: edmd.DEMSimulation(state, CONTACT, steps_per_contact=spc), t_end, 1)
+        dem_s, dem = timed(lambda: edmd.DEMSimulation(state, CONTACT, steps_per_contact=spc, friction=friction), t_end, 1)
         row[f"dem{spc}_seconds"] = dem_s
         row[f"dem{spc}_steps"] = dem.steps
         row[f"speedup_vs_dem{spc}"] = dem_s / emd_s
@@ -92,9 +98,11 @@ def main():
     parser.add_argument("--n", type=int, default=10_000)
     parser.add_argument("--eta", type=float, nargs="+", default=[0.01, 0.05, 0.1])
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--friction", type=float, default=None, metavar="MU", help="Hertz-Mindlin friction with this coefficient")
     parser.add_argument("--out", default="benchmarks/results/emdstar.json")
     args = parser.parse_args()
-    results = [bench(args.n, eta, args.repeats) for eta in args.eta]
+    friction = None if args.friction is None else edmd.Friction(mu=args.friction, law="mindlin")
+    results = [bench(args.n, eta, args.repeats, friction) for eta in args.eta]
     write_results(args.out, args, results)
 
 
