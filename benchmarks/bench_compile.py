@@ -38,6 +38,13 @@ JOBS = {
     "from edmd.physics.emdstar import EMDStar\n"
     "s = edmd.maxwell_boltzmann(edmd.random_packing(500, 0.05, seed=1), 1.0, seed=2)\n"
     "edmd.Simulation(s, collision=EMDStar(Hertz(young=1e5, poisson=0.3, A=1e-3))).run(max_events=1000)\n",
+    # frictional eMD* (the frictional two-body solver in the A event, spins) to its first contacts
+    "emdstar_friction": "import edmd\n"
+    "from edmd.physics.contact import Hertz\n"
+    "from edmd.physics.emdstar import EMDStar\n"
+    "s = edmd.maxwell_boltzmann(edmd.random_packing(500, 0.05, seed=1), 1.0, seed=2, spin=True)\n"
+    "rule = EMDStar(Hertz(young=1e5, poisson=0.3, A=1e-3), friction=edmd.Friction(mu=0.3, law='mindlin'))\n"
+    "edmd.Simulation(s, collision=rule).run(max_events=1000)\n",
 }
 
 
