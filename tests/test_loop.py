@@ -12,7 +12,7 @@ from edmd._core.jit import in_disk_cache
 from edmd._core.loop import loop_variant
 
 PLAIN = (False, False, False, L.NORMAL_CONST)
-FEATURE_CODE = {"_debug_check", "emd_contact", "finish_contact", "collide_wall", "execute_b", "is_pending", "well_event"}
+FEATURE_CODE = {"_debug_check", "emd_contact", "emd_contact_frictional", "finish_contact", "collide_wall", "execute_b", "is_pending", "well_event"}
 
 
 def referenced_globals(func) -> set[str]:
@@ -40,11 +40,23 @@ def test_plain_hard_spheres_compile_no_feature_code():
         ((False, False, False, L.NORMAL_CONST, True), {"_debug_check"}),
         ((False, True, False, L.NORMAL_SOFT), {"emd_contact", "execute_b"}),
         ((True, True, False, L.NORMAL_SOFT), {"collide_wall", "emd_contact", "finish_contact", "execute_b", "is_pending"}),
+        ((False, True, True, L.NORMAL_SOFT), {"emd_contact_frictional", "execute_b"}),
         ((False, False, False, L.NORMAL_CONST, False, False, False, True), {"well_event"}),
     ],
 )
 def test_each_feature_brings_its_own_code(features, code):
     assert referenced_globals(loop_variant(*features).run_events.py_func) & FEATURE_CODE == code
+
+
+def test_smooth_emdstar_never_compiles_the_frictional_solver():
+    """The A event of each kind (the loop variants above call the one of theirs): smooth runs the
+    smooth map only (the frictional solver would cost them ~10 CPU-s of compilation), rough
+    (frictional) runs the frictional one."""
+    from edmd._core import emdstar
+
+    names = {"smooth": referenced_globals(emdstar.emd_contact.py_func), "frictional": referenced_globals(emdstar.emd_contact_frictional.py_func)}
+    assert "smooth_map" in names["smooth"] and "frictional_map" not in names["smooth"]
+    assert "frictional_map" in names["frictional"] and "smooth_map" not in names["frictional"]
 
 
 def test_variants_are_memoised_and_distinct():

@@ -105,20 +105,9 @@ def _kinetic(m, v, dv):
     return 0.5 * m * (x * x + y * y + z * z)
 
 
-@jit
-def contact_map(i, j, P, mass, omega, inertia, geo, fp, ip, emd):
-    r"""The A event of the contact ``(i, j)`` (both streamed to it): relocation, velocities, increments.
-
-    Fills ``work[4:9]`` with ``r_iA, r_jA, V, Delta_i, Delta_j`` (``r_jA`` in the periodic image
-    closest to ``i``). Smooth contacts: the matrix of restitution of physics.md §4.5–§4.7 (table,
-    or the direct solver outside the table's box or when no table is used) and the update of
-    §4.6. Frictional contacts (``ip[IP_EMD_FRICTION]``): the frictional two-body solver
-    (:func:`.twobody_friction.frictional_update`, §4.11), which also fills ``work[9:11]`` with
-    the spins after the contact. Returns ``(t_c, lost, lost_kinetic, v_n, v_t)``: the contact
-    duration (NaN if the solver failed), the energy the pair loses (kinetic and rotational) and
-    its translational part.
-    """
-    values, tg, ctab, cgeo, W, K, work = emd.values, emd.table_grid, emd.central, emd.central_grid, emd.weights, emd.solver, emd.work
+@leaf
+def _load_pair(i, j, P, geo, work):
+    """Rows 0-3 of ``work``: ``r_i, r_j, v_i, v_j`` (``r_j`` the image closest to ``i``); returns ``(v_n, v_t)``."""
     dx, dy, dz = wrap3(P[j, L.X] - P[i, L.X], P[j, L.Y] - P[i, L.Y], P[j, L.Z] - P[i, L.Z], geo)
     for k in range(3):
         work[0, k] = P[i, L.X + k]
@@ -127,36 +116,65 @@ def contact_map(i, j, P, mass, omega, inertia, geo, fp, ip, emd):
     work[1, 0] = P[i, L.X] + dx
     work[1, 1] = P[i, L.Y] + dy
     work[1, 2] = P[i, L.Z] + dz
+    _ex, _ey, _ez, _fx, _fy, _fz, vn, vt = collision_frame(work[0], work[1], work[2], work[3])
+    return vn, vt
+
+
+@jit
+def smooth_map(i, j, P, mass, geo, fp, ip, emd):
+    r"""The A event of the smooth contact ``(i, j)`` (both streamed to it): relocation, velocities, increments.
+
+    Fills ``work[4:9]`` with ``r_iA, r_jA, V, Delta_i, Delta_j`` (``r_jA`` in the periodic image
+    closest to ``i``) from the matrix of restitution of physics.md §4.5–§4.7 (table, or the
+    direct solver outside the table's box or when no table is used) and the update of §4.6.
+    Returns ``(t_c, lost, lost, v_n, v_t)``: the contact duration (NaN if the solver failed) and
+    the kinetic energy the pair loses (twice: all of it is translational).
+    """
+    work = emd.work
+    vn, vt = _load_pair(i, j, P, geo, work)
     mi, mj = mass[i], mass[j]
     ri, rj = P[i, L.R], P[j, L.R]
     sigma = ri + rj
     mu = mi * mj / (mi + mj)
-    model, a, b = ip[L.IP_EMD_MODEL], fp[L.FP_SOFT_A], fp[L.FP_SOFT_B]
-    _ex, _ey, _ez, _fx, _fy, _fz, vn, vt = collision_frame(work[0], work[1], work[2], work[3])
-    if ip[L.IP_EMD_FRICTION]:
-        for k in range(3):
-            work[11, k] = omega[i, k]
-            work[12, k] = omega[j, k]
-        tc = frictional_update(
-            model, a, b, ip[L.IP_EMD_FRICTION], fp[L.FP_FRICTION_KT], fp[L.FP_FRICTION_XT], fp[L.FP_FRICTION_MU], mi, mj, ri, rj,
-            inertia[i], inertia[j], work[0], work[1], work[2], work[3], work[11], work[12], fp[L.FP_EMD_RTOL], emd.friction, work[4:11],
-        )  # fmt: skip
-        if not tc == tc:
-            return math.nan, 0.0, 0.0, vn, vt
-        zero = work[13]
-        before = _kinetic(mi, work[2], zero) + _kinetic(mj, work[3], zero)
-        lost_kinetic = before - _kinetic(mi, work[6], work[7]) - _kinetic(mj, work[6], work[8])
-        spins = _kinetic(inertia[i], work[11], zero) + _kinetic(inertia[j], work[12], zero)
-        spins -= _kinetic(inertia[i], work[9], zero) + _kinetic(inertia[j], work[10], zero)
-        return tc, lost_kinetic + spins, lost_kinetic, vn, vt
     phi, d, tc, eps, _tab = matrix_of_restitution(
-        model, a, b, mu, ri * rj / sigma, sigma, vn, vt, ip[L.IP_EMD_TABLE] != 0, values, tg, ctab, cgeo, fp[L.FP_EMD_RTOL], W, K
+        ip[L.IP_EMD_MODEL], fp[L.FP_SOFT_A], fp[L.FP_SOFT_B], mu, ri * rj / sigma, sigma, vn, vt, ip[L.IP_EMD_TABLE] != 0,
+        emd.values, emd.table_grid, emd.central, emd.central_grid, fp[L.FP_EMD_RTOL], emd.weights, emd.solver,
     )  # fmt: skip
     if not tc == tc:
         return math.nan, 0.0, 0.0, vn, vt
     vn, vt = lab_frame_update(work[0], work[1], work[2], work[3], mi, mj, sigma, phi, d, eps, work[4:9])
     lost = 0.5 * mu * ((1.0 - eps * eps) * vn * vn + (1.0 - 1.0 / (d * d)) * vt * vt)
     return tc, lost, lost, vn, vt
+
+
+@jit
+def frictional_map(i, j, P, mass, omega, inertia, geo, fp, ip, emd):
+    r"""The A event of the frictional contact ``(i, j)`` (both streamed to it), docs/physics.md §4.8, §4.11.
+
+    As :func:`smooth_map`, from the frictional two-body solver
+    (:func:`.twobody_friction.frictional_update`), which also fills ``work[9:11]`` with the spins
+    after the contact. Returns ``(t_c, lost, lost_kinetic, v_n, v_t)``: the energy the pair loses
+    (translation and rotation) and its translational part.
+    """
+    work = emd.work
+    vn, vt = _load_pair(i, j, P, geo, work)
+    mi, mj = mass[i], mass[j]
+    for k in range(3):
+        work[11, k] = omega[i, k]
+        work[12, k] = omega[j, k]
+    tc = frictional_update(
+        ip[L.IP_EMD_MODEL], fp[L.FP_SOFT_A], fp[L.FP_SOFT_B], ip[L.IP_EMD_FRICTION], fp[L.FP_FRICTION_KT], fp[L.FP_FRICTION_XT],
+        fp[L.FP_FRICTION_MU], mi, mj, P[i, L.R], P[j, L.R], inertia[i], inertia[j], work[0], work[1], work[2], work[3], work[11],
+        work[12], fp[L.FP_EMD_RTOL], emd.friction, work[4:11],
+    )  # fmt: skip
+    if not tc == tc:
+        return math.nan, 0.0, 0.0, vn, vt
+    zero = work[13]
+    before = _kinetic(mi, work[2], zero) + _kinetic(mj, work[3], zero)
+    lost_kinetic = before - _kinetic(mi, work[6], work[7]) - _kinetic(mj, work[6], work[8])
+    spins = _kinetic(inertia[i], work[11], zero) + _kinetic(inertia[j], work[12], zero)
+    spins -= _kinetic(inertia[i], work[9], zero) + _kinetic(inertia[j], work[10], zero)
+    return tc, lost_kinetic + spins, lost_kinetic, vn, vt
 
 
 @jit
@@ -196,69 +214,81 @@ def finish_contact(p, i, j, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, 
         repredict(np.int64(other), t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd.pending_until, bath_t, pairs)
 
 
-@jit
-def emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt, cbuf, emd, bath_t, pairs):
-    """A pair ``(i, j)`` (streamed to ``t``) reaches contact under eMD* (physics.md §4.8).
+def _make_emd_contact(frictional):
+    """``emd_contact`` for smooth or frictional contacts (a closure constant: a smooth run never compiles the frictional solver)."""
 
-    Exception b) first: pending B events of either partner are executed now (and, with
-    post-collisional communication, those of their former partners); if the pair no longer
-    approaches, the contact is discarded (``CONTACT_DISCARDED``). Then the A event: matrix of restitution,
-    relocation unless it would overlap a third particle or a wall (exception a), pending
-    increments and B events at ``t + t_c`` (``CONTACT_SOFT``). Exception a), overlapping pairs
-    and failed solves fall back to the instantaneous rule with the contact law's central
-    :math:`e_n(v_n)` (``CONTACT_INSTANT``). ``CONTACT_LIST_FULL`` if a neighbour list ran out of
-    capacity.
-    """
-    P, mass, omega, inertia, image, count, tlast = part
-    pdv, ptb, pj = emd.pending_dv, emd.pending_until, emd.partner
-    exception_b = is_pending(emd, i) or is_pending(emd, j)
-    if exception_b:
-        cnt[L.C_EMD_EXC_B] += 1
-        for p in (np.int64(i), np.int64(j)):
-            if is_pending(emd, p):
-                finish_contact(p, i, j, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd, bath_t, pairs)
-    dx, dy, dz, gx, gy, gz = separation(P, i, j, t, geo)
-    if exception_b and dx * gx + dy * gy + dz * gz >= 0.0:
-        return CONTACT_DISCARDED
-    sigma = P[i, L.R] + P[j, L.R]
-    if dx * dx + dy * dy + dz * dz < (sigma * (1.0 - 1e-9)) ** 2:
-        return CONTACT_INSTANT  # overlapping and approaching: no contact geometry to start from
-    tc, lost, lost_kinetic, vn, vt = contact_map(i, j, P, mass, omega, inertia, geo, fp, ip, emd)
-    if not tc == tc:
-        return CONTACT_INSTANT
-    work = emd.work
-    walls = ip[L.IP_WALLS]
-    if relocation_blocked(i, work[4, 0], work[4, 1], work[4, 2], i, j, t, P, grid, geo, walls, cbuf) or relocation_blocked(
-        j, work[5, 0], work[5, 1], work[5, 2], i, j, t, P, grid, geo, walls, cbuf
-    ):
-        cnt[L.C_EMD_EXC_A] += 1
-        return CONTACT_INSTANT
-    jn = 0.0  # virial r_ij . J with the impulse J on i over the whole contact
-    for k in range(3):
-        jk = mass[i] * (work[6, k] + work[7, k] - P[i, L.VX + k])
-        jn += (work[0, k] - work[1, k]) * jk
-        P[i, L.X + k] = work[4, k]
-        P[j, L.X + k] += work[5, k] - work[1, k]  # (in j's own periodic frame)
-        P[i, L.VX + k] = work[6, k]
-        P[j, L.VX + k] = work[6, k]
-        pdv[i, k] = work[7, k]
-        pdv[j, k] = work[8, k]
-    if ip[L.IP_EMD_FRICTION]:  # the spins take their values after the contact now (see the module docs)
+    @jit
+    def emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt, cbuf, emd, bath_t, pairs):
+        """A pair ``(i, j)`` (streamed to ``t``) reaches contact under eMD* (physics.md §4.8).
+
+        Exception b) first: pending B events of either partner are executed now (and, with
+        post-collisional communication, those of their former partners); if the pair no longer
+        approaches, the contact is discarded (``CONTACT_DISCARDED``). Then the A event: the matrix of
+        restitution (:func:`smooth_map`) or the frictional solver (:func:`frictional_map`), relocation unless it would overlap a third particle or a wall (exception a), pending
+        increments and B events at ``t + t_c`` (``CONTACT_SOFT``). Exception a), overlapping pairs
+        and failed solves fall back to the instantaneous rule with the contact law's central
+        :math:`e_n(v_n)` (``CONTACT_INSTANT``). ``CONTACT_LIST_FULL`` if a neighbour list ran out of
+        capacity.
+        """
+        P, mass, omega, inertia, image, count, tlast = part
+        pdv, ptb, pj = emd.pending_dv, emd.pending_until, emd.partner
+        exception_b = is_pending(emd, i) or is_pending(emd, j)
+        if exception_b:
+            cnt[L.C_EMD_EXC_B] += 1
+            for p in (np.int64(i), np.int64(j)):
+                if is_pending(emd, p):
+                    finish_contact(p, i, j, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd, bath_t, pairs)
+        dx, dy, dz, gx, gy, gz = separation(P, i, j, t, geo)
+        if exception_b and dx * gx + dy * gy + dz * gz >= 0.0:
+            return CONTACT_DISCARDED
+        sigma = P[i, L.R] + P[j, L.R]
+        if dx * dx + dy * dy + dz * dz < (sigma * (1.0 - 1e-9)) ** 2:
+            return CONTACT_INSTANT  # overlapping and approaching: no contact geometry to start from
+        if frictional:
+            tc, lost, lost_kinetic, vn, vt = frictional_map(i, j, P, mass, omega, inertia, geo, fp, ip, emd)
+        else:
+            tc, lost, lost_kinetic, vn, vt = smooth_map(i, j, P, mass, geo, fp, ip, emd)
+        if not tc == tc:
+            return CONTACT_INSTANT
+        work = emd.work
+        walls = ip[L.IP_WALLS]
+        if relocation_blocked(i, work[4, 0], work[4, 1], work[4, 2], i, j, t, P, grid, geo, walls, cbuf) or relocation_blocked(
+            j, work[5, 0], work[5, 1], work[5, 2], i, j, t, P, grid, geo, walls, cbuf
+        ):
+            cnt[L.C_EMD_EXC_A] += 1
+            return CONTACT_INSTANT
+        jn = 0.0  # virial r_ij . J with the impulse J on i over the whole contact
         for k in range(3):
-            omega[i, k] = work[9, k]
-            omega[j, k] = work[10, k]
-    ptb[i] = t + tc
-    ptb[j] = t + tc
-    pj[i] = j
-    pj[j] = i
-    acc[L.A_VIRIAL] += jn
-    acc[L.A_KE] -= lost_kinetic
-    acc[L.A_DISSIPATED] += lost
-    cnt[L.C_EMD_A] += 1
-    acc[L.A_EMD_VN] = vn
-    acc[L.A_EMD_VT] = vt
-    if not rebin(i, t, P, image, grid, lists, geo, mode, fp, cbuf):
-        return CONTACT_LIST_FULL
-    if not rebin(j, t, P, image, grid, lists, geo, mode, fp, cbuf):
-        return CONTACT_LIST_FULL
-    return CONTACT_SOFT
+            jk = mass[i] * (work[6, k] + work[7, k] - P[i, L.VX + k])
+            jn += (work[0, k] - work[1, k]) * jk
+            P[i, L.X + k] = work[4, k]
+            P[j, L.X + k] += work[5, k] - work[1, k]  # (in j's own periodic frame)
+            P[i, L.VX + k] = work[6, k]
+            P[j, L.VX + k] = work[6, k]
+            pdv[i, k] = work[7, k]
+            pdv[j, k] = work[8, k]
+        if frictional:  # the spins take their values after the contact now (see the module docs)
+            for k in range(3):
+                omega[i, k] = work[9, k]
+                omega[j, k] = work[10, k]
+        ptb[i] = t + tc
+        ptb[j] = t + tc
+        pj[i] = j
+        pj[j] = i
+        acc[L.A_VIRIAL] += jn
+        acc[L.A_KE] -= lost_kinetic
+        acc[L.A_DISSIPATED] += lost
+        cnt[L.C_EMD_A] += 1
+        acc[L.A_EMD_VN] = vn
+        acc[L.A_EMD_VT] = vt
+        if not rebin(i, t, P, image, grid, lists, geo, mode, fp, cbuf):
+            return CONTACT_LIST_FULL
+        if not rebin(j, t, P, image, grid, lists, geo, mode, fp, cbuf):
+            return CONTACT_LIST_FULL
+        return CONTACT_SOFT
+
+    return emd_contact
+
+
+emd_contact = _make_emd_contact(False)
+emd_contact_frictional = _make_emd_contact(True)

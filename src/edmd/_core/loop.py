@@ -19,7 +19,7 @@ from . import layout as L
 from .bath import bath_event
 from .cells import bin_all, walk_around, walk_next
 from .collide import collide_pair, collide_wall
-from .emdstar import emd_contact, execute_b, finish_contact, is_pending
+from .emdstar import emd_contact, emd_contact_frictional, execute_b, finish_contact, is_pending
 from .forcing import white_noise_kick
 from .jit import hot, jit
 from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTACT_GROWN, CONTACT_SOFT, CONTACT_WELL, NB_LIST, NORMAL_SOFT, TANGENT_SMOOTH
@@ -313,7 +313,10 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well, grow
                             well_event(i, j, pairs.kind[i], P, mass, pairs, geo, fp, acc, cnt)
                             outcome = CONTACT_WELL
                     if emd_on:
-                        outcome = emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt, cbuf, emd, bath_t, pairs)
+                        if rough:  # (eMD* is rough only with friction: the frictional solver, compiled for these runs only)
+                            outcome = emd_contact_frictional(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt, cbuf, emd, bath_t, pairs)
+                        else:
+                            outcome = emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt, cbuf, emd, bath_t, pairs)
                         if outcome == CONTACT_LIST_FULL:
                             return L.ST_LIST_FULL
                         if outcome == CONTACT_SOFT:
