@@ -163,7 +163,7 @@ def test_compile_warms_the_loop_of_a_feature_set():
 def test_compile_names_a_bad_feature():
     r = runner.invoke(app, ["compile", "walls+ruogh"])
     assert r.exit_code == 2 and "unknown feature 'ruogh'" in r.output
-    r = runner.invoke(app, ["compile", "emdstar+rough"])
+    r = runner.invoke(app, ["compile", "emdstar+soft"])
     assert r.exit_code == 2 and "cannot be combined" in r.output
     r = runner.invoke(app, ["compile", "vibration"])
     assert r.exit_code == 2 and "vibration needs walls" in r.output

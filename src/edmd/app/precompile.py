@@ -7,7 +7,7 @@ sweep's workers or CI can warm the cache for the feature sets they will use.
 
 Features are written as ``+``-joined names: ``plain``, ``walls``, ``rough``, ``soft`` (the central
 restitution of a contact law used instantaneously: viscoelastic spheres, ``viscoelastic`` is
-another name for it), ``emdstar``,
+another name for it), ``emdstar`` (``emdstar+rough``: frictional eMD*),
 ``bath`` (the Andersen heat bath, :class:`edmd.Andersen`), ``noise`` (white-noise kicks,
 :class:`edmd.WhiteNoise`), ``vibration`` (a vibrating wall, :class:`edmd.VibratingWall`: the
 walls variant compiled for its geometry), ``well`` (square wells, :class:`edmd.SquareWell`), ``grow``
@@ -39,10 +39,10 @@ def parse_features(spec: str) -> frozenset[str]:
     Example:
         >>> sorted(parse_features("walls+rough"))
         ['rough', 'walls']
-        >>> parse_features("emdstar+rough")
+        >>> parse_features("emdstar+soft")
         Traceback (most recent call last):
         ...
-        edmd.app.precompile.FeatureError: emdstar runs are smooth and use their soft contact law: it cannot be combined with rough or soft
+        edmd.app.precompile.FeatureError: emdstar runs use their soft contact law: it cannot be combined with soft (emdstar+rough is frictional eMD*)
         >>> sorted(parse_features("walls+viscoelastic"))
         ['soft', 'walls']
     """
@@ -53,8 +53,8 @@ def parse_features(spec: str) -> frozenset[str]:
     if unknown or not names:
         raise FeatureError(f"unknown feature {unknown[0] if unknown else spec!r}; the features are plain or {', '.join(FEATURES)} joined by '+'")
     found = frozenset(names)
-    if "emdstar" in found and found & {"rough", "soft"}:
-        raise FeatureError("emdstar runs are smooth and use their soft contact law: it cannot be combined with rough or soft")
+    if {"emdstar", "soft"} <= found:
+        raise FeatureError("emdstar runs use their soft contact law: it cannot be combined with soft (emdstar+rough is frictional eMD*)")
     if {"emdstar", "noise"} <= found:
         raise FeatureError("white-noise kicks and eMD* cannot be combined")
     if {"emdstar", "well"} <= found:
@@ -82,6 +82,7 @@ def all_feature_sets() -> list[frozenset[str]]:
             for rough in ((), ("rough",)):
                 sets.append(frozenset(walls + normal + rough))
         sets.append(frozenset(walls + ("emdstar",)))
+        sets.append(frozenset(walls + ("emdstar", "rough")))
     driven = [s | extra for s in sets for extra in ({"bath"}, {"noise"}, {"bath", "noise"}) if not ("emdstar" in s and "noise" in extra)]
     vibrated = [s | {"vibration"} for s in sets if "walls" in s]
     wells = [s | {"well"} for s in sets + driven if "emdstar" not in s]
@@ -110,9 +111,9 @@ def _example(features: frozenset[str]):
     normal = hertz if "soft" in features else 0.9
     rule = Rough(e_n=normal, beta=0.5) if "rough" in features else Rough(e_n=normal)
     if "emdstar" in features:
-        rule = EMDStar(hertz)
+        rule = EMDStar(hertz, friction=edmd.Friction(mu=0.5, law="mindlin") if "rough" in features else None)
     periodic = [True, True, "walls" not in features]
-    state = edmd.maxwell_boltzmann(edmd.lattice(32, 0.1, periodic=periodic), 1.0, seed=1)
+    state = edmd.maxwell_boltzmann(edmd.lattice(32, 0.1, periodic=periodic), 1.0, seed=1, spin="rough" in features)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # e.g. the viscoelastic validity warning of this toy system
         bath = Andersen(kT=1.0, rate=0.1) if "bath" in features else None
