@@ -394,7 +394,6 @@ def test_frictional_exception_a_is_walton_with_the_sticking_restitution():
     c = sim.engine.emd_counters()
     assert c["emd_exceptions_a"] == 1 and c["emd_fallbacks"] == 1 and c["emd_contacts"] == 0
     beta = rule.for_dim(3).fallback_beta
-    assert beta == pytest.approx(edmd.physics.emdstar.sticking_beta(contact, friction), rel=0)
     walton = Simulation(state, collision=Rough(e_n=contact, beta=beta, mu=0.2))
     walton.run(max_events=1)
     for name in ("position", "velocity", "angular_velocity"):
@@ -431,6 +430,10 @@ def test_frictional_settings_name_the_problem():
         EMDStar(Hertz(1e7, 0.3), friction=Friction(mu=0.3, stiffness=1e4))
     with pytest.raises(EMDStarError, match="Mindlin friction takes its stiffness from a Hertz"):
         EMDStar(LinearDashpot(k=1e4), friction=Friction(mu=0.3, law="mindlin"))
+    with pytest.raises(EMDStarError, match="use damping = 0 with Mindlin"):
+        EMDStar(LinearDashpot(k=1e4, gamma=5.0), friction=Friction(mu=0.3, law="mindlin", stiffness=1e6, damping=0.5), fallback_beta=0.3)
+    with pytest.raises(EMDStarError, match="solved directly"):
+        EMDStar(Hertz(1e7, 0.3), tables="some_table.npz", friction=Friction(mu=0.3, law="mindlin"))
     EMDStar(Hertz(1e7, 0.3), friction=Friction(mu=0.3, stiffness=1e4), fallback_beta=0.2)  # given: fine
 
 

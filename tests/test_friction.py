@@ -257,6 +257,8 @@ def test_config_frictional_emdstar(dim):
         parse_config(BASE.format(dim=dim, kind="edmd") + EMD + "beta = 0.25\n")
     with pytest.raises(ConfigError, match="needs friction.stiffness"):
         parse_config(BASE.format(dim=dim, kind="edmd") + EMD + "[friction]\nmu = 0.3\n")
+    with pytest.raises(ConfigError, match="give collision.beta"):
+        parse_config(BASE.format(dim=dim, kind="edmd") + EMD + "[friction]\nmu = 0.3\nstiffness = 1e3\n")
 
 
 def test_cli_runs_frictional_dem(tmp_path):

@@ -134,7 +134,7 @@ def _kinematics(prm, s):
 
 @jit
 def rhs(prm, mode, s, ds):
-    """Derivatives of the state ``s`` (mode ``STICK`` or ``SLIDE``) into ``ds``.
+    """Derivatives of the state ``s`` (mode ``STICK``, ``SLIDE`` or ``FROZEN``: sliding with the direction held) into ``ds``.
 
     Returns ``(g_end, g_switch)``: :math:`X + cX'` (the contact ends at its root) and the
     switching function, positive while the mode holds, scaled into ``[-1, 1]`` (sticking:
@@ -291,7 +291,8 @@ def _root(prm, mode, x0, h, g0, g1, which, shift, K, xs, x1, rtol, atol):
 @leaf
 def _switch(prm, mode, s):
     """Change the mode at a switching point: sticking -> sliding keeps the trial force as ``S``,
-    sliding -> sticking sets the spring to the Coulomb limit. Returns the new mode."""
+    sliding (or a held direction) -> sticking sets the spring to the Coulomb limit. Returns the new mode."""
+    _project(prm, s)
     _n0, _n1, _n2, _r, _X, _V, fn, eta, _f1, _f2, _w0, _w1, _w2, _c0, _c1, _c2, _cn, vx, vy, vz, kk, _kr = _kinematics(prm, s)
     if mode == STICK:
         for q, v in ((0, vx), (1, vy), (2, vz)):
@@ -311,7 +312,8 @@ def _start_mode(prm, s, K, xs):
 
     The trial force is compared with the Coulomb limit a moment (``1e-9``) after the start, in a
     state advanced to first order; sliding starts with :math:`\\mathbf S = \\mu\\tilde F_n(0)\\hat{\\mathbf s}`
-    along that trial force (zero for Hertz, where it then grows along :math:`\\mathbf Q`).
+    along that trial force, or, for Hertz (no force at the touch), in mode ``FROZEN`` with that
+    direction held (see :func:`_thaw`).
     """
     if prm[P_MU] == 0.0:  # smooth: no tangential force at all
         return SLIDE
@@ -335,6 +337,16 @@ def _start_mode(prm, s, K, xs):
     for q in range(3):
         s[Z + q] = prm[P_MU] * prm[P_C] * xs[Z + q] / fm  # F_n = c at X = 0, X' = 1
     return SLIDE
+
+
+@leaf
+def _project(prm, s):
+    """Remove the normal component from ``s[Z:]`` (a held direction leaves the tangent plane as the normal turns)."""
+    nx, ny, nz = _kinematics(prm, s)[0:3]
+    zn = s[Z] * nx + s[Z + 1] * ny + s[Z + 2] * nz
+    s[Z] -= zn * nx
+    s[Z + 1] -= zn * ny
+    s[Z + 2] -= zn * nz
 
 
 @leaf
@@ -369,6 +381,7 @@ def _thaw(prm, s, limit):
     f = prm[P_MU] * fn
     if f < limit:
         return False
+    _project(prm, s)
     m = math.sqrt(s[Z] ** 2 + s[Z + 1] ** 2 + s[Z + 2] ** 2)
     for q in range(Z, N_STATE):
         s[q] *= f / m
@@ -425,8 +438,10 @@ def solve_frictional(prm, s, rtol, K, W, info):
         for q in range(N_STATE):
             x0[q] = s[q]
         err, ge1, gs1 = _step(prm, mode, x0, h, K, xs, x1, rtol, atol)
-        if err > 1.0:
-            h *= max(_MIN_FACTOR, _SAFETY * err**-0.125)
+        if not err <= 1.0:  # (NaN too)
+            h *= max(_MIN_FACTOR, _SAFETY * err**-0.125) if err == err else _MIN_FACTOR
+            if h < 1e-14 * (1.0 + t):  # the step size has collapsed: the contact cannot be resolved
+                return False
             continue
         h_next = h * (_MAX_FACTOR if err == 0.0 else min(_MAX_FACTOR, _SAFETY * err**-0.125))
         ends = ge1 <= 0.0 and (g_end > 0.0 or t > 0.0 or c == 0.0)

@@ -309,8 +309,8 @@ class ContactConfig(_Section):
 
 
 class FrictionConfig(_Section):
-    """``[friction]``: tangential spring, damping and Coulomb slider of the DEM's contacts (see
-    :mod:`edmd.physics.friction`); the particles' spins then evolve."""
+    """``[friction]``: tangential spring, damping and Coulomb slider of soft contacts, in the DEM or
+    in eMD* (see :mod:`edmd.physics.friction`); the particles' spins then evolve."""
 
     mu: float = Field(ge=0, allow_inf_nan=True, description="Coulomb friction coefficient (inf: never slides)")
     law: Literal["linear", "mindlin"] = Field("linear", description="linear: constant k_t (Cundall-Strack); mindlin: k_t = stiffness * contact radius")
@@ -455,6 +455,14 @@ class Config(_Section):
             raise ValueError("friction.law = 'linear' needs friction.stiffness (the tangential spring constant k_t)")
         if self.collision.rule == "emdstar" and self.collision.beta is not None and self.friction is None:
             raise ValueError("collision.beta of rule 'emdstar' is the sticking restitution of frictional contacts: it needs a [friction] section")
+        if self.collision.rule == "emdstar" and self.friction is not None:
+            pairing = (soft, self.friction.law)
+            if self.collision.beta is None and pairing not in (("dashpot", "linear"), ("hertz", "mindlin")):
+                raise ValueError(f"a {pairing[1]} spring with a {pairing[0]} contact has no sticking restitution of its own: give collision.beta (the fallback's beta_0)")
+            if pairing == ("dashpot", "mindlin") and self.friction.damping > 0.0:
+                raise ValueError("friction.damping > 0 with law = 'mindlin' on a dashpot contact cannot be solved by eMD* (Mindlin's stiffness vanishes at the touch): use damping = 0 or law = 'linear'")
+            if self.collision.tables not in (None, "default", "exact"):
+                raise ValueError("collision.tables: frictional contacts are solved directly (no table covers friction)")
         return self
 
 

@@ -27,6 +27,12 @@ on the particle's own velocity (a pending contact is completed first, exception 
 Between A and B the relative kinetic energy of the pair is not carried by velocities:
 observables use the *committed* velocities :math:`\mathbf v + \boldsymbol\Delta`
 (:attr:`edmd.State.committed_velocity`).
+
+With ``friction`` (:class:`~edmd.physics.friction.Friction`) the contacts are frictional
+(docs/physics.md §4.8, §4.11): the A event takes positions, velocities and spins from the
+frictional two-body solver (spins set at A), and the instantaneous rule of the exceptions is
+Walton's rough rule with the central :math:`e_n(v_n)`, the friction's :math:`\mu` and
+``fallback_beta`` (:func:`sticking_beta`).
 """
 
 from __future__ import annotations
@@ -58,7 +64,7 @@ TABLE_CHOICES = ("default", "exact")
 
 @dataclasses.dataclass(frozen=True)
 class EMDStar:
-    r"""The eMD* collision rule for soft, smooth spheres or disks (physics.md §4.8).
+    r"""The eMD* collision rule for soft spheres or disks, smooth or frictional (physics.md §4.8).
 
     Args:
         contact: the soft contact law, :class:`~edmd.physics.contact.Hertz` (viscoelastic, material
@@ -106,6 +112,8 @@ class EMDStar:
             raise EMDStarError(f"communication must be true or false, got {self.communication!r}")
         if not (isinstance(self.rtol, float) and 1e-14 <= self.rtol <= 1e-4):
             raise EMDStarError(f"rtol must be a float in [1e-14, 1e-4], got {self.rtol!r}")
+        if self.friction is not None and self.tables not in TABLE_CHOICES:
+            raise EMDStarError("frictional contacts are solved directly (no table covers friction): leave tables at 'default' or 'exact'")
         self.table()  # fail early: a missing file or a table of another model
         if self.friction is not None and not isinstance(self.friction, Friction):
             raise EMDStarError(f"friction must be an edmd.Friction, got {self.friction!r}")
@@ -120,6 +128,12 @@ class EMDStar:
                 self.friction.constants(self.contact)
             except ContactError as exc:
                 raise EMDStarError(str(exc)) from None
+            if isinstance(self.contact, LinearDashpot) and self.friction.law == "mindlin" and self.friction.damping > 0.0:
+                raise EMDStarError(
+                    "Mindlin friction with tangential damping on a dashpot contact cannot be solved: Mindlin's stiffness vanishes at "
+                    "the touch, where the dashpot's damping force is already there (the spring held at the Coulomb limit would need "
+                    "an infinite extension); use damping = 0 with Mindlin, or a linear spring"
+                )
             if self.fallback_beta is None:
                 sticking_beta(self.contact, self.friction)  # fail early: no default for this pairing
 
