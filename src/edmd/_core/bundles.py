@@ -93,7 +93,7 @@ class EMDStarData(NamedTuple):
     central_grid: tuple  #: its geometry (floats)
     weights: np.ndarray  #: scratch of the table lookup (lookup.SCRATCH_SHAPE)
     solver: np.ndarray  #: (13, 3) scratch of the direct two-body solver
-    work: np.ndarray  #: (14, 3) scratch of the lab-frame update (r1, r2, v1, v2, r1A, r2A, V, D1, D2, spins after, spins before, zeros)
+    work: np.ndarray  #: (11, 3) scratch of the lab-frame update (r1, r2, v1, v2, r1A, r2A, V, D1, D2, spins after a frictional contact)
     friction: np.ndarray  #: scratch of the frictional two-body solver (twobody_friction.SCRATCH_ROWS, N_STATE)
 
 

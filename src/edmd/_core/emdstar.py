@@ -13,10 +13,9 @@ Pending contacts live in the bundle ``emd`` (:class:`.bundles.EMDStarData`; shor
 * ``ptb (N,)``: local time of the pending B event (``inf``: none);
 * ``pj (N,)`` int32: the partner of the pending contact (``-1``: none);
 * ``values, tg, ctab, cgeo``: the lookup table of the matrix of restitution (:mod:`.lookup`);
-* ``W, K``: scratch of the table lookup and of the direct solver; ``work (14, 3)``: scratch of
-  the lab-frame update (rows: ``r1, r2, v1, v2``, then ``r1A, r2A, V, Delta1, Delta2``, the
-  spins after and before a frictional contact, a row of zeros); ``friction``: scratch of the
-  frictional solver.
+* ``W, K``: scratch of the table lookup and of the direct solver; ``work (11, 3)``: scratch of
+  the lab-frame update (rows: ``r1, r2, v1, v2``, then ``r1A, r2A, V, Delta1, Delta2`` and the
+  spins after a frictional contact); ``friction``: scratch of the frictional solver.
 
 **Frictional contacts** (``ip[IP_EMD_FRICTION]``, docs/physics.md §4.8, §4.11): the A event
 takes the relocation, velocities and increments from the frictional two-body solver, and the
@@ -99,10 +98,15 @@ def relocation_blocked(p, x, y, z, i, j, t, P, grid, geo, walls, cbuf):
 
 
 @leaf
-def _kinetic(m, v, dv):
-    r""":math:`\tfrac12m|\mathbf v + \Delta\mathbf v|^2` of two rows of three numbers."""
-    x, y, z = v[0] + dv[0], v[1] + dv[1], v[2] + dv[2]
-    return 0.5 * m * (x * x + y * y + z * z)
+def _dist2(a, b):
+    """:math:`|\mathbf a - \mathbf b|^2` of two rows of three numbers."""
+    x, y, z = a[0] - b[0], a[1] - b[1], a[2] - b[2]
+    return x * x + y * y + z * z
+
+
+@leaf
+def _spin_energy(inertia, w):
+    return 0.5 * inertia * (w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
 
 
 @leaf
@@ -159,21 +163,17 @@ def frictional_map(i, j, P, mass, omega, inertia, geo, fp, ip, emd):
     work = emd.work
     vn, vt = _load_pair(i, j, P, geo, work)
     mi, mj = mass[i], mass[j]
-    for k in range(3):
-        work[11, k] = omega[i, k]
-        work[12, k] = omega[j, k]
     tc = frictional_update(
         ip[L.IP_EMD_MODEL], fp[L.FP_SOFT_A], fp[L.FP_SOFT_B], ip[L.IP_EMD_FRICTION], fp[L.FP_FRICTION_KT], fp[L.FP_FRICTION_XT],
-        fp[L.FP_FRICTION_MU], mi, mj, P[i, L.R], P[j, L.R], inertia[i], inertia[j], work[0], work[1], work[2], work[3], work[11],
-        work[12], fp[L.FP_EMD_RTOL], emd.friction, work[4:11],
+        fp[L.FP_FRICTION_MU], mi, mj, P[i, L.R], P[j, L.R], inertia[i], inertia[j], work[0], work[1], work[2], work[3], omega[i],
+        omega[j], fp[L.FP_EMD_RTOL], emd.friction, work[4:11],
     )  # fmt: skip
     if not tc == tc:
         return math.nan, 0.0, 0.0, vn, vt
-    zero = work[13]
-    before = _kinetic(mi, work[2], zero) + _kinetic(mj, work[3], zero)
-    lost_kinetic = before - _kinetic(mi, work[6], work[7]) - _kinetic(mj, work[6], work[8])
-    spins = _kinetic(inertia[i], work[11], zero) + _kinetic(inertia[j], work[12], zero)
-    spins -= _kinetic(inertia[i], work[9], zero) + _kinetic(inertia[j], work[10], zero)
+    # V is unchanged, so the kinetic energy lost is the relative motion's, mu/2 (|g|^2 - |g'|^2)
+    lost_kinetic = 0.5 * mi * mj / (mi + mj) * (_dist2(work[2], work[3]) - _dist2(work[7], work[8]))
+    spins = _spin_energy(inertia[i], omega[i]) + _spin_energy(inertia[j], omega[j])
+    spins -= _spin_energy(inertia[i], work[9]) + _spin_energy(inertia[j], work[10])
     return tc, lost_kinetic + spins, lost_kinetic, vn, vt
 
 

@@ -202,13 +202,9 @@ def sticking_beta(contact: ContactModel, friction: Friction, inertia_factor: flo
         >>> round(sticking_beta(LinearDashpot(k=7.0), Friction(mu=0.5, stiffness=2.0)), 6)   # k_t / k = 2/7: perfectly rough
         1.0
     """
-    a = contact.constants()[0]
-    if isinstance(contact, LinearDashpot) and friction.law == "linear":
-        k_scaled = friction.stiffness_for(contact) / a
-    elif isinstance(contact, Hertz) and friction.law == "mindlin":
-        k_scaled = friction.stiffness_for(contact) / a
-    else:
+    if (contact.name, friction.law) not in (("dashpot", "linear"), ("hertz", "mindlin")):
         raise EMDStarError(f"a {friction.law} spring with a {contact.name} contact has no sticking restitution of its own: give fallback_beta = ...")
+    k_scaled = friction.stiffness_for(contact) / contact.constants()[0]
     kappa = 0.5 / inertia_factor
     u0 = 1e-3
     prm = np.array([contact.code, 0.0, 1e-9, friction.code, k_scaled, 0.0, math.inf, kappa, kappa, 1.0, 1.0])
@@ -253,7 +249,7 @@ def emd_bundle(n: int, rule: EMDStar | None, pending=None) -> EMDStarData:
     values, tg, ctab, cgeo = NO_TABLE if rule is None else rule.core()
     values, ctab = np.ascontiguousarray(values, float), np.ascontiguousarray(ctab, float)
     tg, cgeo = tuple(float(x) for x in tg), tuple(float(x) for x in cgeo)
-    scratch = (np.zeros(_lk.SCRATCH_SHAPE), np.zeros((13, 3)), np.zeros((14, 3)), np.zeros((_tf.SCRATCH_ROWS, _tf.N_STATE)))
+    scratch = (np.zeros(_lk.SCRATCH_SHAPE), np.zeros((13, 3)), np.zeros((11, 3)), np.zeros((_tf.SCRATCH_ROWS, _tf.N_STATE)))
     return EMDStarData(np.ascontiguousarray(dv, float), np.ascontiguousarray(tb, float), np.ascontiguousarray(pj, np.int32), values, tg, ctab, cgeo, *scratch)
 
 
