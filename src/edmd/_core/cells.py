@@ -5,7 +5,10 @@ particle of cell ``c`` and ``link`` links the rest (singly linked, cells are sma
 the cell a particle is registered in; ``shape = [ncx, ncy, ncz]`` (``gi`` here);
 ``size = [lx, ly, lz, 1/lx, 1/ly, 1/lz]`` (``gf``).
 The box spans ``[-L/2, L/2)`` on every axis. A periodic axis has at least three cells or
-exactly one (then the neighbour search does not look along it); an open axis any number.
+exactly one (then the neighbour search does not look along it); an open axis any number. The
+event loop's cells mode needs four on a periodic axis: with three, two cells are adjacent
+through two images, and a crossing would not reveal the partner's other image (the engine
+ensures it, measured by the brute-force tests).
 """
 
 import math

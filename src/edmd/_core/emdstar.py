@@ -99,7 +99,7 @@ def relocation_blocked(p, x, y, z, i, j, t, P, grid, geo, walls, cbuf):
 
 @leaf
 def _dist2(a, b):
-    """:math:`|\mathbf a - \mathbf b|^2` of two rows of three numbers."""
+    r""":math:`|\mathbf a - \mathbf b|^2` of two rows of three numbers."""
     x, y, z = a[0] - b[0], a[1] - b[1], a[2] - b[2]
     return x * x + y * y + z * z
 

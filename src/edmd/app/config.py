@@ -270,6 +270,7 @@ class EngineConfig(_Section):
     skin: float = Field(0.5, gt=0)
     resync_every: float = Field(50.0, gt=0)
     events_per_bucket: float = Field(4.0, gt=0)
+    cell_size: float | None = Field(None, ge=1, description="cells mode: cell edge in largest contact distances (default: the cost model's)")
     debug: bool = Field(False, description="check every collision for overlaps (slow; for testing)")
 
 

@@ -31,6 +31,7 @@ from .._core.wells import capture_by_distance, captured_pairs, load_captured, we
 from ..physics import collide
 from ..physics.emdstar import EMDStar, emd_bundle
 from .memory import grid_shape
+from .neighbours import cell_edge
 from ..state import State, StateError, rescale_temperature
 
 #: ``INFO`` when a run must compile its loop variant first (the CLI shows it)
@@ -54,6 +55,9 @@ class EngineOptions:
             overlaps any neighbour (relative tolerance ``debug_tolerance``); a violation stops
             the run with :class:`EngineError`. Slower; for testing.
         debug_tolerance: relative tolerance of the debug checks.
+        cell_size: cell edge of ``"cells"`` mode in units of the largest contact distance
+            (>= 1); ``None`` picks it from the density by the cost model of
+            :func:`edmd.run.neighbours.cell_edge`.
     """
 
     neighbours: str = "auto"
@@ -63,6 +67,7 @@ class EngineOptions:
     auto_threshold: float = 0.2
     debug: bool = False
     debug_tolerance: float = 1e-9
+    cell_size: float | None = None
 
     def __post_init__(self):
         if self.neighbours not in ("auto", "list", "cells"):
@@ -73,6 +78,8 @@ class EngineOptions:
             raise ValueError(f"resync_every must be positive, got {self.resync_every}")
         if not self.events_per_bucket > 0:
             raise ValueError(f"events_per_bucket must be positive, got {self.events_per_bucket}")
+        if self.cell_size is not None and not self.cell_size >= 1.0:
+            raise ValueError(f"cell_size must be >= 1 (cells at least one contact distance wide), got {self.cell_size}")
 
 
 class EngineError(RuntimeError):
@@ -207,8 +214,21 @@ class Engine:
         self.mode = mode
         self.ip[L.IP_MODE] = L.NB_LIST if mode == "list" else L.NB_CELLS
         self.fp[L.FP_SKIN] = skin
-        cell_min = sigma_max + (skin if mode == "list" else 0.0)
+        if mode == "list":
+            cell_min = sigma_max + skin
+        else:
+            if opt.cell_size is not None:
+                cell_min = opt.cell_size * sigma_max
+            else:
+                cell_min = cell_edge(state.n / state.volume, 2.0 * float(state.radius.mean()), sigma_max, self.dim)
+            if periodic_len.size:  # at least 4 cells on a periodic axis: a pair is then adjacent through one image only
+                cell_min = max(sigma_max, min(cell_min, float(periodic_len.min()) / 4.0))
         self.grid_cells = grid_shape(self.box, np.r_[self.periodic, [False] * (3 - self.dim)], cell_min, self.n)
+        if mode == "cells" and np.any(self.grid_cells[: self.dim][self.periodic] < 4):
+            raise StateError(
+                f"cells mode needs >= 4 cells on every periodic axis, got {self.grid_cells[: self.dim].tolist()} "
+                f"(the memory cap on the cell count coarsened them); use neighbours='list'"
+            )
         if mode == "list":
             n_density = state.n / state.volume
             reach = sigma_max + skin

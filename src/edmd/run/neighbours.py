@@ -1,0 +1,82 @@
+"""The cell size of cells mode from a cost model of the density (benchmarks/README.md, "Cell size").
+
+In cells mode a particle sees the :math:`3^d` cells around its own, and every crossing of a cell
+face is an event that scans the newly adjacent layer of :math:`3^{d-1}` cells (physics.md §1.4).
+Cells of edge :math:`\\ell \\ge \\sigma_{max}` trade crossings (fewer as :math:`\\ell` grows)
+against pair predictions (more). Per collision, with :math:`n` particles per volume and mean
+free path :math:`\\lambda`:
+
+.. math::
+
+    C(\\ell) = \\frac{2 \\lambda k_d}{\\ell} \\left(c_x + 3^{d-1} n \\ell^d c_p\\right)
+               + 2 \\cdot 3^d n \\ell^d c_p
+
+where :math:`k_d \\ell^{-1}` is the number of face crossings per unit path of a Maxwellian
+flight (:math:`k_3 = 3/2`, :math:`k_2 = 4/\\pi`: :math:`d \\langle|v_x|\\rangle / \\langle|v|\\rangle`),
+:math:`c_x` the cost of a crossing event and :math:`c_p` that of one pair prediction. Only their
+ratio matters: :data:`CROSSING_COST` (measured, see benchmarks/README.md). The two free paths that
+end in each collision cross :math:`2 \\lambda k_d / \\ell` faces; the two partners then search
+their full neighbourhoods.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+#: cost of a crossing event in pair predictions (c_x / c_p), measured at N = 1e4, 3D, eta = 0.002-0.05
+CROSSING_COST = 19.0
+
+
+def mean_free_path(number_density: float, sigma: float, dim: int) -> float:
+    """Enskog mean free path of hard spheres (3D) or disks (2D) of diameter ``sigma``.
+
+    .. math::
+
+        \\lambda_3 = \\frac{1}{\\sqrt{2} \\pi n \\sigma^2 \\chi}, \\qquad
+        \\lambda_2 = \\frac{1}{2 \\sqrt{2} n \\sigma \\chi}
+
+    with the contact value :math:`\\chi` of Carnahan–Starling (3D) or Henderson (2D)
+    (physics.md §1.8).
+
+    Example:
+        >>> round(mean_free_path(0.0191, 1.0, 3), 2)   # eta = 0.01
+        11.55
+    """
+    if number_density <= 0.0:
+        return math.inf
+    if dim == 3:
+        eta = math.pi / 6.0 * number_density * sigma**3
+        chi = (1.0 - 0.5 * eta) / (1.0 - eta) ** 3
+        return 1.0 / (math.sqrt(2.0) * math.pi * number_density * sigma**2 * chi)
+    eta = math.pi / 4.0 * number_density * sigma**2
+    chi = (1.0 - 7.0 * eta / 16.0) / (1.0 - eta) ** 2
+    return 1.0 / (2.0 * math.sqrt(2.0) * number_density * sigma * chi)
+
+
+def cell_cost(edge: float, number_density: float, free_path: float, dim: int) -> float:
+    """:math:`C(\\ell) / c_p`: the work of one collision in pair predictions (module doc)."""
+    k = 1.5 if dim == 3 else 4.0 / math.pi
+    per_cell = number_density * edge**dim
+    return 2.0 * free_path * k / edge * (CROSSING_COST + 3 ** (dim - 1) * per_cell) + 2.0 * 3**dim * per_cell
+
+
+def cell_edge(number_density: float, sigma_mean: float, sigma_max: float, dim: int) -> float:
+    """The cell edge of least :func:`cell_cost`, at least the largest contact distance ``sigma_max``.
+
+    The free path is that of the mean diameter (a polydisperse system's cells are as wide as
+    its largest contact, and the cost is counted over all its particles).
+
+    Example:
+        >>> round(cell_edge(0.0955, 1.0, 1.0, 3), 2), round(cell_edge(0.0191, 1.0, 1.0, 3), 2)   # eta = 0.05, 0.01
+        (1.45, 3.22)
+        >>> cell_edge(0.95, 1.0, 1.0, 3)   # dense: one contact distance
+        1.0
+    """
+    free_path = mean_free_path(number_density, sigma_mean, dim)
+    if not math.isfinite(free_path):
+        return sigma_max
+    edges = sigma_max * np.exp(np.linspace(0.0, math.log(64.0), 601))  # 1..64 contact distances
+    costs = [cell_cost(float(e), number_density, free_path, dim) for e in edges]
+    return float(edges[int(np.argmin(costs))])
