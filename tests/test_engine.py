@@ -135,3 +135,22 @@ def test_frozen_system_is_idle(dim):
     sim = edmd.Simulation(s)
     sim.run(until_time=5.0)
     assert sim.time == 5.0 and sim.events == 0
+
+
+@pytest.mark.parametrize("mode, eta", [("cells", 0.02), ("cells", 0.45), ("list", 0.45)])
+def test_work_per_event_does_not_grow_with_n(dim, mode, eta):
+    """Cells scanned, pairs tested and calendar entries moved per event are the same at N = 500
+    and 4000 (a scan or a calendar that grows with N would make large runs stall). The dense
+    cases start from a lattice, whose particles sit on cell faces: thousands of events at t = 0
+    once gave the calendar a zero bucket width, and every event then walked all particles."""
+    per_event = []
+    for n in (500, 4000):
+        s = edmd.lattice(n, eta, dim=dim) if eta > 0.3 else edmd.random_packing(n, eta, dim=dim, seed=3)
+        sim = edmd.Simulation(edmd.maxwell_boltzmann(s, 1.0, seed=4), engine=EngineOptions(neighbours=mode))
+        sim.run(max_events=20 * n)
+        w = sim.engine.work_counters()
+        assert w["events"] == 20 * n
+        per_event.append(np.array([w["cells_scanned"], w["pairs_tested"], w["calendar_moves"]]) / w["events"])
+    small, large = per_event
+    assert np.all(small > 0.5)
+    assert np.all(large < 1.15 * small), (small, large)

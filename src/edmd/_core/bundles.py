@@ -58,6 +58,7 @@ class Grid(NamedTuple):
     cell: np.ndarray  #: (N,) int32 cell of each particle
     shape: np.ndarray  #: (3,) int64 cells per axis
     size: np.ndarray  #: (6,) float64 cell lengths, then their inverses
+    work: np.ndarray  #: (2,) int64 work of the pair predictions: cells scanned, pairs tested (cumulative)
 
 
 class Lists(NamedTuple):
@@ -77,7 +78,7 @@ class Calendar(NamedTuple):
     back: np.ndarray  #: (N,) int32 previous particle in the bucket
     head: np.ndarray  #: (buckets + 1,) int32 first particle of each bucket (last: overflow)
     heap: np.ndarray  #: (N,) int32 binary heap of the current bucket
-    ints: np.ndarray  #: (3,) int64 QI_* scalars
+    ints: np.ndarray  #: (4,) int64 QI_* scalars
     floats: np.ndarray  #: (3,) float64 QF_* scalars
 
 

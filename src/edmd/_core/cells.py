@@ -1,9 +1,10 @@
 """Cell grid ("sectors", physics.md §1.4): binning, neighbour cells, face-crossing times.
 
-The grid is :class:`.bundles.Grid` ``(head, link, cell, shape, size)``: ``head[c]`` is the first
-particle of cell ``c`` and ``link`` links the rest (singly linked, cells are small); ``cell[i]`` is
-the cell a particle is registered in; ``shape = [ncx, ncy, ncz]`` (``gi`` here);
-``size = [lx, ly, lz, 1/lx, 1/ly, 1/lz]`` (``gf``).
+The grid is :class:`.bundles.Grid` ``(head, link, cell, shape, size, work)``: ``head[c]`` is the
+first particle of cell ``c`` and ``link`` links the rest (singly linked, cells are small);
+``cell[i]`` is the cell a particle is registered in; ``shape = [ncx, ncy, ncz]`` (``gi`` here);
+``size = [lx, ly, lz, 1/lx, 1/ly, 1/lz]`` (``gf``); ``work`` counts the cells scanned and the
+pairs tested by the event loop's predictions (:func:`count_work`).
 The box spans ``[-L/2, L/2)`` on every axis. A periodic axis has at least three cells or
 exactly one (then the neighbour search does not look along it); an open axis any number. The
 event loop's cells mode needs four on a periodic axis: with three, two cells are adjacent
@@ -47,6 +48,7 @@ def new_grid(n, box, nc):
         np.zeros(n, np.int32),
         gi,
         gf,
+        np.zeros(2, np.int64),
     )
 
 
@@ -159,6 +161,14 @@ def cell_block(grid, c, geo, out, axis, step):
                 out[n] = (x2 * ny + y2) * nz + z2
                 n += 1
     return n
+
+
+@leaf
+def count_work(grid, cells, pairs):
+    """Add a prediction's work to ``grid.work``: the regression measure of the neighbour search
+    (it must not grow with N at a fixed density; ``tests/test_engine.py``)."""
+    grid.work[0] += cells
+    grid.work[1] += pairs
 
 
 @leaf

@@ -16,7 +16,7 @@ import math
 
 from .jit import jit, leaf
 
-from .cells import cell_insert, cell_of_point, cell_remove, walk_around, walk_next
+from .cells import cell_insert, cell_of_point, cell_remove, count_work, walk_around, walk_next
 from .layout import FP_LIST_MARGIN, G_GX, G_GY, G_GZ, G_ON, R, X, Y, Z
 from .predict import INF, flight, gap_time, sphere_exit_time, wrap3
 from .wells import well_reach
@@ -46,7 +46,9 @@ def _link_neighbours(i, P, grid, lists, geo, skin, reach, cbuf, only_higher):
     cx, cy, cz = centre[i, 0], centre[i, 1], centre[i, 2]
     ri = reach * P[i, R] + skin  # (reach 1.0: exactly the sums of hard spheres)
     nc, s, j = walk_around(grid, grid.cell[i], geo, cbuf)
+    tested = 0
     while j >= 0:
+        tested += 1
         if j != i and (j > i or not only_higher):
             dx, dy, dz = wrap3(cx - centre[j, 0], cy - centre[j, 1], cz - centre[j, 2], geo)
             lim = ri + reach * P[j, R]
@@ -60,6 +62,7 @@ def _link_neighbours(i, P, grid, lists, geo, skin, reach, cbuf, only_higher):
                 nbl[j, nj] = i
                 nbl_n[j] = nj + 1
         nc, s, j = walk_next(grid, cbuf, nc, s, j)
+    count_work(grid, nc, tested)
     return True
 
 

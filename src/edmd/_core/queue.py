@@ -9,14 +9,16 @@ redistributed when the calendar wraps. Each particle is in exactly one place:
 * ``loc[i] = -2 - b``: in bucket ``b`` (``b == nb`` is the overflow list).
 
 The arrays form :class:`.bundles.Calendar` (unpacked here as ``key, loc, nxt, prv, head, heap,
-qi, qf``). State scalars: ``qi = [heap_size, current_bucket, nb]``, ``qf = [t_base, 1/w, w]``.
+qi, qf``). State scalars: ``qi = [heap_size, current_bucket, nb, moved]``, ``qf = [t_base, 1/w,
+w]``; ``moved`` counts the entries visited when a bucket is opened or the calendar wraps (the
+calendar's own work: per event it stays O(1) when the bucket width fits the event rate).
 """
 
 import numpy as np
 from .jit import hot, jit, leaf
 from .bundles import Calendar
 
-QI_SIZE, QI_CUR, QI_NB = 0, 1, 2
+QI_SIZE, QI_CUR, QI_NB, QI_MOVED = 0, 1, 2, 3
 QF_BASE, QF_INV, QF_WIDTH = 0, 1, 2
 
 
@@ -163,6 +165,7 @@ def _wrap_calendar(q):
         if key[i] < tmin:
             tmin = key[i]
         i = nxt[i]
+        qi[QI_MOVED] += 1
     if tmin == np.inf:
         return False
     qf[QF_BASE] = tmin
@@ -194,6 +197,7 @@ def queue_top(q):
             n = qi[QI_SIZE]
             heap[n] = i
             qi[QI_SIZE] = n + 1
+            qi[QI_MOVED] += 1
             _sift_up(heap, loc, key, n)
             i = s
     return heap[0]
@@ -223,7 +227,7 @@ def new_queue(n, nb):
         np.full(n, -1, np.int32),
         np.full(nb + 1, -1, np.int32),
         np.zeros(n, np.int32),
-        np.zeros(3, np.int64),
+        np.zeros(4, np.int64),
         np.zeros(3, np.float64),
     )
 
@@ -231,15 +235,24 @@ def new_queue(n, nb):
 def calendar_shape(keys, t_now, events_per_bucket=8.0):
     """Bucket width and count so that a bucket holds ~``events_per_bucket`` events.
 
-    The event rate is estimated from the spacing of the earliest finite predicted keys; the
-    calendar spans a few mean prediction horizons so that the overflow list stays small.
+    The event rate is estimated from the earliest finite predicted keys: ``k`` keys after
+    ``t_now`` and those at ``t_now`` itself (a lattice start in cells mode has thousands of
+    particles on cell faces) fall within the ``k``-th key after it. The calendar spans a few mean
+    prediction horizons so that the overflow list stays small.
+
+    Example:
+        >>> keys = np.r_[np.zeros(3000), np.linspace(0.001, 1.0, 1000)]   # many events now
+        >>> width, nb = calendar_shape(keys, 0.0, 4.0)
+        >>> round(1.0 / width), nb   # 4000 events in the first time unit, 4 per bucket
+        (1000, 2400)
     """
     n = keys.shape[0]
-    dt = np.sort(keys[np.isfinite(keys)] - t_now)
-    if dt.size < 2 or dt[-1] <= 0.0:
+    dt = np.sort(np.maximum(keys[np.isfinite(keys)] - t_now, 0.0))
+    later = dt[dt > 0.0]
+    if later.size < 2:
         return 1.0, 1
-    k = min(dt.size - 1, max(8, n // 4))
-    rate = k / max(dt[k], 1e-300)
+    k = min(later.size - 1, max(8, n // 4))
+    rate = (dt.size - later.size + k + 1) / later[k]
     width = events_per_bucket / rate
     horizon = np.quantile(dt, 0.9) * 4.0
     nb = int(min(max(horizon / width, 16), 4 * n + 16))

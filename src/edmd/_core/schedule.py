@@ -16,7 +16,7 @@ called form for rare whole-particle re-predictions (global events, eMD* exceptio
 import numpy as np
 
 from . import layout as L
-from .cells import cell_insert, cell_remove, crossing_time, walk_cells, walk_next
+from .cells import cell_insert, cell_remove, count_work, crossing_time, walk_cells, walk_next
 from .jit import hot, jit
 from .layout import NB_LIST
 from .nblist import shell_exit_time
@@ -52,10 +52,13 @@ def scan_cells(i, t, P, count, ev, grid, geo, cbuf, axis, step):
     best = ev.pair_t[i] - t
     bj = -1
     nc, s, j = walk_cells(grid, grid.cell[i], geo, cbuf, axis, step)
+    tested = 0
     while j >= 0:
         if j != i:
             best, bj = _closer(xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, best, bj)
+            tested += 1
         nc, s, j = walk_next(grid, cbuf, nc, s, j)
+    count_work(grid, nc, tested)
     if bj >= 0:
         _set_pair(ev, count, i, t + best, bj)
 
@@ -75,6 +78,7 @@ def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, 
         best = INF
         bj = -1
         bk = L.PAIR_CORE
+        count_work(grid, 0, nbl_n[i])
         for s in range(nbl_n[i]):
             if grow:
                 best, bj = closer_grow(xi, yi, zi, vxi, vyi, vzi, ri, P, nbl[i, s], t, geo, rate, best, bj)

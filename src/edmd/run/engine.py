@@ -24,7 +24,7 @@ from .._core.bundles import Drive, Lists, Particles, new_events, new_pairs
 from .._core.cells import new_grid
 from .._core.jit import in_disk_cache
 from .._core.loop import GEO_ARG, loop_variant
-from .._core.queue import calendar_shape, new_queue, queue_build
+from .._core.queue import QI_MOVED, calendar_shape, new_queue, queue_build
 from .._core.snapshot import stream_all
 from .._core.nblist import list_reach
 from .._core.wells import capture_by_distance, captured_pairs, load_captured, well_reach
@@ -147,6 +147,7 @@ class Engine:
         self.cnt = np.zeros(L.N_COUNTERS, np.int64)
         self.clog = np.zeros((0, 5))
         self.cbuf = np.zeros(27, np.int32)
+        self.work = np.zeros(4, np.int64)  # cells scanned, pairs tested, calendar entries moved, events (work_counters)
         self.collision_log: list[np.ndarray] | None = None
         self.list_capacity = 0
         self._choose_neighbours(state)
@@ -524,6 +525,7 @@ class Engine:
                 self.acc, self.cnt, self.clog, self.cbuf, self.etab, self.emd, self.drive, self.pairs, stop - self.t_origin, chunk,
             )  # fmt: skip
             budget -= int(self.cnt[L.C_EVENTS]) - before
+            self._take_work(int(self.cnt[L.C_EVENTS]) - before)
             if growing and ((status == L.ST_TIME and stop < t_stop) or (status == L.ST_EVENTS and self._segment_events_left() == 0)):
                 timed = status == L.ST_TIME
                 if timed:
@@ -628,6 +630,31 @@ class Engine:
             captured_pairs=None if self.well is None else self.tag[captured_pairs(self.pairs)],
             check_overlaps=False,
         )
+
+    def _take_work(self, events: int):
+        """Move the work counted in the grid and the calendar (since they were made) to :attr:`work`."""
+        moved = self.q.ints[QI_MOVED]
+        self.work += (self.grid.work[0], self.grid.work[1], moved, events)
+        self.grid.work[:] = 0
+        self.q.ints[QI_MOVED] = 0
+
+    def work_counters(self) -> dict[str, int]:
+        """Work of the event loop in this process (since this engine was made or loaded; not
+        checkpointed: a load does work a continuous run does not): the events processed, the
+        cells scanned and the pairs tested by the predictions (list rebuilds and the layers of
+        cell crossings included), and the calendar entries moved when a bucket opens or the
+        calendar wraps. Per event none of them may grow with N at a fixed density.
+
+        Example:
+            >>> import edmd
+            >>> sim = edmd.Simulation(edmd.maxwell_boltzmann(edmd.random_packing(500, 0.05, seed=1), 1.0, seed=2))
+            >>> sim.run(max_events=5000)
+            >>> w = sim.engine.work_counters()
+            >>> w["events"], 1 < w["pairs_tested"] / w["events"] < 50
+            (5000, True)
+        """
+        names = ("cells_scanned", "pairs_tested", "calendar_moves", "events")
+        return {name: int(w) for name, w in zip(names, self.work)}
 
     def emd_counters(self) -> dict[str, int]:
         """eMD* counters (physics.md §4.8): contacts handled by A/B events, exceptions a) and b),

@@ -42,7 +42,7 @@ def mean_free_path(number_density: float, sigma: float, dim: int) -> float:
 
     Example:
         >>> round(mean_free_path(0.0191, 1.0, 3), 2)   # eta = 0.01
-        11.55
+        11.49
     """
     if number_density <= 0.0:
         return math.inf
@@ -70,7 +70,7 @@ def cell_edge(number_density: float, sigma_mean: float, sigma_max: float, dim: i
 
     Example:
         >>> round(cell_edge(0.0955, 1.0, 1.0, 3), 2), round(cell_edge(0.0191, 1.0, 1.0, 3), 2)   # eta = 0.05, 0.01
-        (1.45, 3.22)
+        (1.52, 3.12)
         >>> cell_edge(0.95, 1.0, 1.0, 3)   # dense: one contact distance
         1.0
     """
