@@ -24,11 +24,12 @@ import time
 from bench_hard_spheres import write_results
 
 
-def worker(n: int, eta: float, neighbours: str, chunk: float, walls: bool) -> None:
+def worker(n: int, eta: float, neighbours: str, chunk: float, walls: bool, dim: int) -> None:
     """Serve chunks: read a line, run ``chunk * n`` events, print the collision rate."""
     import edmd
 
-    state = edmd.maxwell_boltzmann(edmd.random_packing(n, eta, dim=3, seed=1, periodic=[True, True, not walls]), 1.0, seed=2)
+    periodic = [True] * (dim - 1) + [not walls]
+    state = edmd.maxwell_boltzmann(edmd.random_packing(n, eta, dim=dim, seed=1, periodic=periodic), 1.0, seed=2)
     sim = edmd.Simulation(state, engine={"neighbours": neighbours})
     sim.run(max_events=20 * n)
     print("ready", flush=True)
@@ -40,7 +41,7 @@ def worker(n: int, eta: float, neighbours: str, chunk: float, walls: bool) -> No
 
 def start(tree: str, args) -> subprocess.Popen:
     env = {**os.environ, "PYTHONPATH": os.path.join(os.path.abspath(tree), "src")}
-    cmd = [sys.executable, __file__, "--worker", "--n", str(args.n), "--eta", str(args.eta), "--neighbours", args.neighbours, "--chunk", str(args.chunk)] + (["--walls"] if args.walls else [])
+    cmd = [sys.executable, __file__, "--worker", "--n", str(args.n), "--eta", str(args.eta), "--neighbours", args.neighbours, "--chunk", str(args.chunk), "--dim", str(args.dim)] + (["--walls"] if args.walls else [])
     proc = subprocess.Popen(["taskset", "-c", str(args.core), *cmd], env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     if proc.stdout.readline().strip() != "ready":
         raise SystemExit(f"the build in {tree} failed to start")
@@ -63,12 +64,13 @@ def main():
     ap.add_argument("--rounds", type=int, default=16)
     ap.add_argument("--chunk", type=float, default=30.0, help="events per particle per turn")
     ap.add_argument("--core", type=int, default=0)
-    ap.add_argument("--walls", action="store_true", help="elastic walls on z (the wall code paths)")
+    ap.add_argument("--walls", action="store_true", help="elastic walls on the last axis (the wall code paths)")
+    ap.add_argument("--dim", type=int, default=3)
     ap.add_argument("--out", default=None)
     ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.worker:
-        return worker(args.n, args.eta, args.neighbours, args.chunk, args.walls)
+        return worker(args.n, args.eta, args.neighbours, args.chunk, args.walls, args.dim)
     a, b = start(args.old, args), start(args.new, args)
     ra, rb = [], []
     for r in range(args.rounds):
@@ -86,7 +88,7 @@ def main():
     print(f"A: best {summary['A']['best']:.4f} median {summary['A']['median']:.4f} M collisions/s")
     print(f"B: best {summary['B']['best']:.4f} median {summary['B']['median']:.4f} M collisions/s")
     print(f"B/A per round: median {statistics.median(ratios):.4f} (min {min(ratios):.4f}, max {max(ratios):.4f}, {args.rounds} rounds)")
-    out = args.out or f"benchmarks/results/paired_{args.n}_{args.eta}_{args.neighbours}.json"
+    out = args.out or f"benchmarks/results/paired_{args.n}_{args.eta}_{args.neighbours}{'_2d' if args.dim == 2 else ''}.json"
     write_results(out, args, [summary])
 
 

@@ -56,9 +56,8 @@ class Grid(NamedTuple):
     head: np.ndarray  #: (cells,) int32 first particle of each cell (-1: empty)
     link: np.ndarray  #: (N,) int32 next particle in the same cell (-1: last)
     cell: np.ndarray  #: (N,) int32 cell of each particle
-    shape: np.ndarray  #: (3,) int64 cells per axis
+    shape: np.ndarray  #: (5,) int64 cells per axis, then the work counters (cells.GI_WORK: cells scanned, pairs tested)
     size: np.ndarray  #: (6,) float64 cell lengths, then their inverses
-    work: np.ndarray  #: (2,) int64 work of the pair predictions: cells scanned, pairs tested (cumulative)
 
 
 class Lists(NamedTuple):

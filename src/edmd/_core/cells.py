@@ -1,10 +1,12 @@
 """Cell grid ("sectors", physics.md §1.4): binning, neighbour cells, face-crossing times.
 
-The grid is :class:`.bundles.Grid` ``(head, link, cell, shape, size, work)``: ``head[c]`` is the
+The grid is :class:`.bundles.Grid` ``(head, link, cell, shape, size)``: ``head[c]`` is the
 first particle of cell ``c`` and ``link`` links the rest (singly linked, cells are small);
-``cell[i]`` is the cell a particle is registered in; ``shape = [ncx, ncy, ncz]`` (``gi`` here);
-``size = [lx, ly, lz, 1/lx, 1/ly, 1/lz]`` (``gf``); ``work`` counts the cells scanned and the
-pairs tested by the event loop's predictions (:func:`count_work`).
+``cell[i]`` is the cell a particle is registered in; ``shape = [ncx, ncy, ncz, scanned, tested]``
+(``gi`` here): the cells per axis, then the cells scanned and the pairs tested by the event
+loop's predictions (:func:`count_work`; in ``shape``, not a field of their own: one more array
+in the bundle that the called cell functions take by value ran cell-mode gases at 0.65 of the
+speed, measured); ``size = [lx, ly, lz, 1/lx, 1/ly, 1/lz]`` (``gf``).
 The box spans ``[-L/2, L/2)`` on every axis. A periodic axis has at least three cells or
 exactly one (then the neighbour search does not look along it); an open axis any number. The
 event loop's cells mode needs four on a periodic axis: with three, two cells are adjacent
@@ -19,6 +21,10 @@ from .jit import jit, leaf
 from .bundles import Grid
 
 from .predict import INF, gap_time
+
+
+#: index in ``Grid.shape`` of the work counters (cells scanned, then pairs tested)
+GI_WORK = 3
 
 
 def grid_shape(box, periodic, min_cell):
@@ -36,7 +42,8 @@ def grid_shape(box, periodic, min_cell):
 
 def new_grid(n, box, nc):
     """Allocate an empty grid for ``n`` particles with ``nc`` cells per axis."""
-    gi = np.asarray(nc, np.int64).copy()
+    gi = np.zeros(GI_WORK + 2, np.int64)
+    gi[:3] = nc
     gf = np.zeros(6)
     for k in range(3):
         length = box[k] if np.isfinite(box[k]) else 1.0
@@ -48,7 +55,6 @@ def new_grid(n, box, nc):
         np.zeros(n, np.int32),
         gi,
         gf,
-        np.zeros(2, np.int64),
     )
 
 
@@ -165,10 +171,10 @@ def cell_block(grid, c, geo, out, axis, step):
 
 @leaf
 def count_work(grid, cells, pairs):
-    """Add a prediction's work to ``grid.work``: the regression measure of the neighbour search
+    """Add a prediction's work to the grid's counters: the regression measure of the neighbour search
     (it must not grow with N at a fixed density; ``tests/test_engine.py``)."""
-    grid.work[0] += cells
-    grid.work[1] += pairs
+    grid.shape[GI_WORK] += cells
+    grid.shape[GI_WORK + 1] += pairs
 
 
 @leaf

@@ -21,7 +21,7 @@ from numba import typeof
 from .._core import layout as L
 from .._core.bath import bath_schedule
 from .._core.bundles import Drive, Lists, Particles, new_events, new_pairs
-from .._core.cells import new_grid
+from .._core.cells import GI_WORK, new_grid
 from .._core.jit import in_disk_cache
 from .._core.loop import GEO_ARG, loop_variant
 from .._core.queue import QI_MOVED, calendar_shape, new_queue, queue_build
@@ -633,9 +633,9 @@ class Engine:
 
     def _take_work(self, events: int):
         """Move the work counted in the grid and the calendar (since they were made) to :attr:`work`."""
-        moved = self.q.ints[QI_MOVED]
-        self.work += (self.grid.work[0], self.grid.work[1], moved, events)
-        self.grid.work[:] = 0
+        counted = self.grid.shape[GI_WORK : GI_WORK + 2]
+        self.work += (counted[0], counted[1], self.q.ints[QI_MOVED], events)
+        counted[:] = 0
         self.q.ints[QI_MOVED] = 0
 
     def work_counters(self) -> dict[str, int]:
