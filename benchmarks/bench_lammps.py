@@ -13,7 +13,11 @@ default: the shortest contact / 50) and the same force law:
   frictionless (``tangential linear_nohistory 0 0``).
 
 The mapping is checked by a head-on collision (restitution from LAMMPS vs edmd's solver), the
-gas by its kinetic energy after the run. ``--friction`` instead runs an oblique collision with
+gas by its kinetic energy after the run. ``--emdstar`` instead runs eMD* against LAMMPS: a
+viscoelastic gas in SI units (d = 1 mm, 2500 kg/m^3, Y = 1e9 Pa, nu = 0.3, A set for e_n = 0.9
+at 1 m/s, <v^2> = 1 (m/s)^2; :func:`emdstar_compare`) from the same random start, for the same
+physical time (about two collisions per particle), LAMMPS at edmd's DEM time step; reported: the
+head-on mapping check, CPU seconds of both, their ratio and T(t) of both at five times. ``--friction`` instead runs an oblique collision with
 spins and friction (``tangential linear_history`` with Hooke, ``mindlin`` with Hertz; see
 :func:`friction_pairs`) in both codes at several time steps, against the exact end of the contact from edmd's
 frictional two-body solver. Reported: steps per second and particle-steps per
@@ -23,6 +27,7 @@ Usage::
 
     python benchmarks/bench_lammps.py --n 4000 32000 --eta 0.05 --steps 2000
     python benchmarks/bench_lammps.py --friction --out benchmarks/results/lammps_friction.json
+    python benchmarks/bench_lammps.py --emdstar --n 10000 --eta 0.05 0.01 --out benchmarks/results/lammps_emdstar.json
 """
 
 from __future__ import annotations
@@ -35,6 +40,7 @@ import shutil
 import subprocess
 import tempfile
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -217,20 +223,143 @@ run {steps}
     }
 
 
+#: the eMD* case: diameter [m], density [kg/m^3], Young's modulus [Pa], Poisson ratio, e_n at 1 m/s
+EMD_CASE = {"diameter": 1e-3, "density": 2500.0, "young": 1e9, "poisson": 0.3, "e_n": 0.9}
+
+
+def emd_contact() -> Hertz:
+    """The eMD* case's viscoelastic Hertz law, its damping A set (bisection) for e_n = 0.9 at 1 m/s."""
+    c = EMD_CASE
+    m = c["density"] * math.pi / 6.0 * c["diameter"] ** 3
+    r = 0.5 * c["diameter"]
+    lo, hi = 0.0, 1e-3
+    for _ in range(200):
+        a = 0.5 * (lo + hi)
+        with warnings.catch_warnings():  # (trial values far above the answer leave the quasi-static regime)
+            warnings.simplefilter("ignore")
+            e = Hertz(young=c["young"], poisson=c["poisson"], A=a).central(m, m, r, r, 1.0).e_n
+        lo, hi = (a, hi) if e > c["e_n"] else (lo, a)
+    return Hertz(young=c["young"], poisson=c["poisson"], A=0.5 * (lo + hi))
+
+
+def emdstar_compare(lmp: str, contact: Hertz, n: int, eta: float, repeats: int) -> dict:
+    """eMD* and LAMMPS from the same state for the same physical time: CPU seconds and T(t)."""
+    from edmd.physics.emdstar import EMDStar
+
+    c = EMD_CASE
+    state = edmd.random_packing(n, eta, radius=0.5 * c["diameter"], density=c["density"], seed=1)
+    state = edmd.maxwell_boltzmann(state, float(state.mass[0]) / 3.0, seed=2)  # <v^2> = 1 (m/s)^2
+    rule = EMDStar(contact)
+    probe = edmd.Simulation(state, collision=rule)  # (also compiles)
+    probe.run(max_events=20 * n)
+    t_end = 2.0 / (2.0 * probe.collisions / (n * probe.time))  # two collisions per particle
+    dt = edmd.DEMSimulation(state, contact).dt
+    steps = 5 * int(math.ceil(t_end / dt / 5))
+    t_end = steps * dt
+    marks = [steps * k // 5 for k in range(1, 6)]
+    emd_cpu, emd_ke = [], []
+    for _ in range(repeats):
+        sim = edmd.Simulation(state, collision=rule)
+        cpu, ke = 0.0, []
+        for k in marks:
+            t0 = time.process_time()
+            sim.run(until_time=k * dt)
+            cpu += time.process_time() - t0
+            ke.append(sim.state.kinetic_energy())
+        emd_cpu.append(cpu)
+        emd_ke = ke
+    script = f"""units si
+atom_style sphere
+boundary p p p
+read_data state.data
+{lammps_pair(contact, float(state.mass[0]))}comm_modify vel yes
+neighbor {0.3 * c["diameter"]!r} bin
+neigh_modify delay 0 every 1 check yes
+fix 1 all nve
+timestep {dt!r}
+thermo_style custom step ke
+thermo_modify norm no
+thermo {marks[0]}
+run {steps}
+"""
+    lmp_cpu = []
+    with tempfile.TemporaryDirectory() as d:
+        write_data(Path(d) / "state.data", state)
+        for _ in range(max(1, repeats - 1)):
+            out = run_lammps(lmp, Path(d), script)
+            lmp_cpu.append(float(re.search(r"Loop time of (\S+) on 1 procs", out).group(1)))
+    lmp_ke = {int(s): float(k) for s, k in re.findall(r"^\s*(\d+)\s+([-+0-9.eE]+)\s*$", out, re.M)}
+    t_of = [k * dt for k in marks]
+    temperatures = {
+        "time_s": t_of,
+        "lammps": [2.0 * lmp_ke[k] / (3 * n) for k in marks],
+        "emdstar": [2.0 * e / (3 * n) for e in emd_ke],
+        "start": state.temperature(),
+    }
+    return {
+        "n": n,
+        "eta": eta,
+        "physical_time_s": t_end,
+        "lammps_steps": steps,
+        "dt_s": dt,
+        "collisions_per_particle": 2.0 * sim.collisions / n,
+        "emd_counters": sim.engine.emd_counters(),
+        "cpu_s": {"lammps": float(np.median(lmp_cpu)), "emdstar": float(np.median(emd_cpu)), "emdstar_best": min(emd_cpu)},
+        "speedup": float(np.median(lmp_cpu)) / float(np.median(emd_cpu)),
+        "temperature": temperatures,
+        "max_relative_temperature_difference": float(max(abs(a / b - 1) for a, b in zip(temperatures["emdstar"], temperatures["lammps"]))),
+    }
+
+
+def main_emdstar(args) -> None:
+    c = EMD_CASE
+    contact = emd_contact()
+    m = c["density"] * math.pi / 6.0 * c["diameter"] ** 3
+    r = 0.5 * c["diameter"]
+    version = subprocess.run([args.lmp, "-h"], capture_output=True, text=True).stdout.splitlines()[1].strip()
+    e_edmd = contact.central(m, m, r, r, 1.0).e_n
+    t_c = contact.central(m, m, r, r, 1.0).t_c
+    atoms = (((-1.5 * r, 0.0, 0.0), (0.5, 0.0, 0.0), (0.0, 0.0, 0.0)), ((1.5 * r, 0.0, 0.0), (-0.5, 0.0, 0.0), (0.0, 0.0, 0.0)))
+    script = _two_spheres_script(lammps_pair(contact, m), t_c / 2000, int(round(3.0 * r / (t_c / 2000))), atoms)
+    script = script.replace("units lj", "units si").replace("region box block -10 10 -10 10 -10 10", f"region box block {-20 * r!r} {20 * r!r} {-20 * r!r} {20 * r!r} {-20 * r!r} {20 * r!r}")
+    script = script.replace("set atom * diameter 1.0", f"set atom * diameter {c['diameter']!r}").replace(f"set atom * density {6 / np.pi!r}", f"set atom * density {c['density']!r}")
+    script = script.replace("neighbor 0.3 bin", f"neighbor {0.3 * c['diameter']!r} bin")
+    with tempfile.TemporaryDirectory() as d:
+        run_lammps(args.lmp, Path(d), script)
+        e_lmp = 2.0 * float((Path(d) / "end.dump").read_text().splitlines()[-1].split()[1]) / 1.0
+    print(f"eMD* case: A = {contact.A:.6g} s; head-on e_n at 1 m/s: LAMMPS {e_lmp:.8f}, edmd {e_edmd:.8f}; t_c = {t_c:.4g} s")
+    results = []
+    for eta in args.eta_list:
+        for n in args.n:
+            r_ = emdstar_compare(args.lmp, contact, n, eta, args.repeats)
+            r_.update(contact={"young": contact.young, "poisson": contact.poisson, "A": contact.A}, head_on_e_n={"lammps": e_lmp, "edmd": e_edmd}, lammps_version=version)
+            cpu = r_["cpu_s"]
+            print(
+                f"N={n} eta={eta}: {r_['physical_time_s']:.4g} s ({r_['lammps_steps']} LAMMPS steps, {r_['collisions_per_particle']:.2f} collisions/particle): "
+                f"LAMMPS {cpu['lammps']:.3g} CPU-s, eMD* {cpu['emdstar']:.3g} (best {cpu['emdstar_best']:.3g}): x{r_['speedup']:.0f}; "
+                f"T(t) differs by <= {r_['max_relative_temperature_difference']:.2%}"
+            )
+            results.append(r_)
+    write_results(args.out, args, results)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--n", type=int, nargs="+", default=[4000, 32000])
-    ap.add_argument("--eta", type=float, default=0.05)
+    ap.add_argument("--eta", type=float, nargs="+", default=[0.05], dest="eta_list")
     ap.add_argument("--steps", type=int, default=2000)
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--lmp", default=shutil.which("lmp") or "lmp")
     ap.add_argument("--out", default=str(Path(__file__).with_name("results") / "lammps.json"))
     ap.add_argument("--friction", action="store_true", help="only the oblique frictional collision with spin, at several time steps")
+    ap.add_argument("--emdstar", action="store_true", help="eMD* against LAMMPS (the SI gas of EMD_CASE)")
     args = ap.parse_args(argv)
     if shutil.which(args.lmp) is None:
         raise SystemExit(f"no LAMMPS executable {args.lmp!r} (Debian: apt-get install lammps); nothing to compare")
     if args.friction:
         return write_results(args.out, args, oblique_check(args.lmp))
+    if args.emdstar:
+        return main_emdstar(args)
     contact = Hertz(young=1e5, poisson=0.3, A=1e-4)
     e_lmp = head_on_restitution(args.lmp, contact, 1.0)
     e_edmd = contact.central(1.0, 1.0, 0.5, 0.5, 1.0).e_n
@@ -238,11 +367,11 @@ def main(argv=None):
     version = subprocess.run([args.lmp, "-h"], capture_output=True, text=True).stdout.splitlines()[1].strip()
     results = []
     for n in args.n:
-        r = compare(args.lmp, contact, n, args.eta, args.steps, args.repeats)
+        r = compare(args.lmp, contact, n, args.eta_list[0], args.steps, args.repeats)
         r.update(contact={"young": contact.young, "poisson": contact.poisson, "A": contact.A}, head_on_e_n={"lammps": e_lmp, "edmd": e_edmd}, lammps_version=version)
         ke, ps = r["kinetic_energy_per_particle_end"], r["particle_steps_per_s"]
         print(
-            f"N={n} eta={args.eta}, {args.steps} steps of {r['dt']:.3g}: KE/N {ke['lammps']:.6f} (LAMMPS) vs {ke['edmd']:.6f} (edmd); "
+            f"N={n} eta={args.eta_list[0]}, {args.steps} steps of {r['dt']:.3g}: KE/N {ke['lammps']:.6f} (LAMMPS) vs {ke['edmd']:.6f} (edmd); "
             f"{ps['lammps'] / 1e6:.2f} vs {ps['edmd'] / 1e6:.2f} M particle-steps/s"
         )
         results.append(r)
