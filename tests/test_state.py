@@ -105,3 +105,27 @@ def test_a_particle_larger_than_the_periodic_box_is_refused(dim):
     walled = dict(one, periodic=[False] * dim)
     with pytest.raises(StateError, match="lies outside the box"):
         State(radius=[3.0], **walled)
+
+
+@pytest.mark.parametrize("rule", ["hard", "emdstar"])
+def test_engine_snapshot_equals_the_checked_state(dim, rule):
+    """Snapshots skip the State's checks (State.trusted): they must be exactly the State that
+    the checked constructor makes of the same arrays, field by field, dtypes included."""
+    import dataclasses
+
+    s = edmd.maxwell_boltzmann(edmd.random_packing(300, 0.1, dim=dim, seed=5), 1.0, seed=6, spin=True)
+    from edmd.physics.emdstar import EMDStar
+
+    collision = EMDStar(edmd.Hertz(young=1e5, poisson=0.3, A=1e-4)) if rule == "emdstar" else edmd.collide.Rough(0.9, -0.5)
+    sim = edmd.Simulation(s, collision=collision)
+    sim.run(max_events=3000)
+    snap = sim.state
+    checked = State(**{f.name: getattr(snap, f.name) for f in dataclasses.fields(State)}, check_overlaps=False)
+    for f in dataclasses.fields(State):
+        a, b = getattr(snap, f.name), getattr(checked, f.name)
+        if isinstance(b, np.ndarray):
+            assert a.dtype == b.dtype and a.shape == b.shape and np.array_equal(a, b), f.name
+        else:
+            assert a == b, f.name
+    if rule == "emdstar":
+        assert np.any(snap.pending_partner >= 0)

@@ -141,6 +141,33 @@ class State:
         if check_overlaps and not self.has_pending:
             self.check_no_overlap()
 
+    @classmethod
+    def trusted(cls, **fields) -> State:
+        """A State of arrays that are already what :meth:`__post_init__` would make of them
+        (fresh, of the right shapes and dtypes, consistent): no conversion, copy or check.
+
+        For the engine's snapshots (:meth:`edmd.run.engine.Engine.snapshot`), whose validation
+        cost more than the run between two thermo rows of a short run; everything else builds
+        States the checked way. Fields left out take their defaults as :meth:`__post_init__` sets them.
+        """
+        state = object.__new__(cls)
+        n, d = fields["position"].shape
+        state.angular_velocity = np.zeros((n, 3) if d == 3 else n)
+        state.inertia = None
+        state.image = np.zeros((n, d), np.int64)
+        state.periodic = np.ones(d, bool)
+        state.last_collision = np.full(n, -np.inf)
+        state.pending_velocity = np.zeros((n, d))
+        state.pending_until = np.full(n, np.inf)
+        state.pending_partner = np.full(n, -1, np.int64)
+        state.captured_pairs = None
+        state.time = 0.0
+        for name, value in fields.items():
+            setattr(state, name, value)
+        if state.inertia is None:
+            state.inertia = default_inertia(state.mass, state.radius, d)
+        return state
+
     def _set_captured(self, n):
         if self.captured_pairs is None:
             return

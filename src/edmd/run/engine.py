@@ -612,24 +612,27 @@ class Engine:
         d = self.dim
         P, mass, omega, inertia = self.part.rows, self.part.mass, self.part.omega, self.part.inertia
         spin = omega[inv] if d == 3 else omega[inv, 2]
-        return State(
-            position=pos[inv, :d],
-            velocity=vel[inv, :d],
-            radius=P[inv, L.R] * (1.0 + self.fp[L.FP_GROW_LOCAL] * (t - self.t_origin)),
-            mass=mass[inv],
-            box=self.box_user,
-            time=t,
-            angular_velocity=spin,
-            inertia=inertia[inv],
-            image=image[inv, :d],
-            periodic=self.periodic,
-            last_collision=self.part.last_collision[inv] + self.t_origin,
-            pending_velocity=self.emd.pending_dv[inv, :d],
-            pending_until=self.emd.pending_until[inv] + self.t_origin,
-            pending_partner=np.where(self.emd.partner[inv] >= 0, self.tag[np.maximum(self.emd.partner[inv], 0)], -1),
-            captured_pairs=None if self.well is None else self.tag[captured_pairs(self.pairs)],
-            check_overlaps=False,
-        )
+        fields = {
+            "position": pos[inv, :d],
+            "velocity": vel[inv, :d],
+            "radius": P[inv, L.R] * (1.0 + self.fp[L.FP_GROW_LOCAL] * (t - self.t_origin)),
+            "mass": mass[inv],
+            "box": self.box_user.copy(),
+            "time": float(t),
+            "angular_velocity": spin,
+            "inertia": inertia[inv],
+            "image": image[inv, :d].astype(np.int64),
+            "periodic": self.periodic.copy(),
+            "last_collision": self.part.last_collision[inv] + self.t_origin,
+        }
+        if self.emd_rule is not None:
+            fields["pending_velocity"] = self.emd.pending_dv[inv, :d]
+            fields["pending_until"] = self.emd.pending_until[inv] + self.t_origin
+            fields["pending_partner"] = np.where(self.emd.partner[inv] >= 0, self.tag[np.maximum(self.emd.partner[inv], 0)], -1).astype(np.int64)
+        if self.well is not None:  # (sorted and checked the State's way: rare)
+            fields["captured_pairs"] = self.tag[captured_pairs(self.pairs)]
+            return State(**fields, check_overlaps=False)
+        return State.trusted(**fields)
 
     def _take_work(self, events: int):
         """Move the work counted in the grid and the calendar (since they were made) to :attr:`work`."""

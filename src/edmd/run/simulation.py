@@ -325,7 +325,7 @@ def engine_options(options: dict) -> EngineOptions:
         >>> engine_options({"neighbors": "list"})
         Traceback (most recent call last):
         ...
-        ValueError: engine option 'neighbors' does not exist (did you mean 'neighbours'?); the options are neighbours, skin, resync_every, events_per_bucket, auto_threshold, debug, debug_tolerance
+        ValueError: engine option 'neighbors' does not exist (did you mean 'neighbours'?); the options are neighbours, skin, resync_every, events_per_bucket, auto_threshold, debug, debug_tolerance, cell_size
     """
     known = [f.name for f in dataclasses.fields(EngineOptions)]
     for key in options:
