@@ -10,6 +10,7 @@ median, min and max of the per-round ratio B/A.
 Usage::
 
     python benchmarks/bench_paired.py OLD_TREE NEW_TREE --n 10976 --eta 0.5 --neighbours list
+    python benchmarks/bench_paired.py OLD_TREE NEW_TREE --n 10000 --eta 0.05 --neighbours cells --emdstar
 """
 
 from __future__ import annotations
@@ -24,13 +25,21 @@ import time
 from bench_hard_spheres import write_results
 
 
-def worker(n: int, eta: float, neighbours: str, chunk: float, walls: bool, dim: int) -> None:
+def worker(n: int, eta: float, neighbours: str, chunk: float, walls: bool, dim: int, emdstar: bool) -> None:
     """Serve chunks: read a line, run ``chunk * n`` events, print the collision rate."""
     import edmd
 
     periodic = [True] * (dim - 1) + [not walls]
-    state = edmd.maxwell_boltzmann(edmd.random_packing(n, eta, dim=dim, seed=1, periodic=periodic), 1.0, seed=2)
-    sim = edmd.Simulation(state, engine={"neighbours": neighbours})
+    if emdstar:  # the viscoelastic gas of bench_emdstar.py (SI units)
+        from bench_emdstar import CONTACT, DENSITY, RADIUS
+        from edmd.physics.emdstar import EMDStar
+
+        state = edmd.random_packing(n, eta, dim=dim, radius=RADIUS, density=DENSITY, seed=1, periodic=periodic)
+        state = edmd.maxwell_boltzmann(state, float(state.mass[0]) / 3.0, seed=2)
+        sim = edmd.Simulation(state, collision=EMDStar(CONTACT), engine={"neighbours": neighbours})
+    else:
+        state = edmd.maxwell_boltzmann(edmd.random_packing(n, eta, dim=dim, seed=1, periodic=periodic), 1.0, seed=2)
+        sim = edmd.Simulation(state, engine={"neighbours": neighbours})
     sim.run(max_events=20 * n)
     print("ready", flush=True)
     for _line in sys.stdin:
@@ -41,7 +50,7 @@ def worker(n: int, eta: float, neighbours: str, chunk: float, walls: bool, dim: 
 
 def start(tree: str, args) -> subprocess.Popen:
     env = {**os.environ, "PYTHONPATH": os.path.join(os.path.abspath(tree), "src")}
-    cmd = [sys.executable, __file__, "--worker", "--n", str(args.n), "--eta", str(args.eta), "--neighbours", args.neighbours, "--chunk", str(args.chunk), "--dim", str(args.dim)] + (["--walls"] if args.walls else [])
+    cmd = [sys.executable, __file__, "--worker", "--n", str(args.n), "--eta", str(args.eta), "--neighbours", args.neighbours, "--chunk", str(args.chunk), "--dim", str(args.dim)] + (["--walls"] if args.walls else []) + (["--emdstar"] if args.emdstar else [])
     proc = subprocess.Popen(["taskset", "-c", str(args.core), *cmd], env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     if proc.stdout.readline().strip() != "ready":
         raise SystemExit(f"the build in {tree} failed to start")
@@ -66,11 +75,12 @@ def main():
     ap.add_argument("--core", type=int, default=0)
     ap.add_argument("--walls", action="store_true", help="elastic walls on the last axis (the wall code paths)")
     ap.add_argument("--dim", type=int, default=3)
+    ap.add_argument("--emdstar", action="store_true", help="eMD* (the viscoelastic gas of bench_emdstar.py) instead of elastic hard spheres")
     ap.add_argument("--out", default=None)
     ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.worker:
-        return worker(args.n, args.eta, args.neighbours, args.chunk, args.walls, args.dim)
+        return worker(args.n, args.eta, args.neighbours, args.chunk, args.walls, args.dim, args.emdstar)
     a, b = start(args.old, args), start(args.new, args)
     ra, rb = [], []
     for r in range(args.rounds):
@@ -88,7 +98,7 @@ def main():
     print(f"A: best {summary['A']['best']:.4f} median {summary['A']['median']:.4f} M collisions/s")
     print(f"B: best {summary['B']['best']:.4f} median {summary['B']['median']:.4f} M collisions/s")
     print(f"B/A per round: median {statistics.median(ratios):.4f} (min {min(ratios):.4f}, max {max(ratios):.4f}, {args.rounds} rounds)")
-    out = args.out or f"benchmarks/results/paired_{args.n}_{args.eta}_{args.neighbours}{'_2d' if args.dim == 2 else ''}.json"
+    out = args.out or f"benchmarks/results/paired_{args.n}_{args.eta}_{args.neighbours}{'_2d' if args.dim == 2 else ''}{'_emdstar' if args.emdstar else ''}.json"
     write_results(out, args, [summary])
 
 

@@ -195,6 +195,24 @@ def test_many_body_gas_runs_and_conserves(dim):
     assert s.kinetic_energy() < e0
 
 
+def test_cells_and_lists_give_the_same_contacts(dim):
+    """In cells mode an A event predicts both partners in its relocation scans (emdstar.relocation_scan),
+    list mode by the full re-prediction over the lists: the same contacts, exceptions included."""
+    state = edmd.maxwell_boltzmann(edmd.random_packing(300, 0.1, dim=dim, seed=7), 1.0, seed=8)
+    rule = EMDStar(Hertz(young=2e3, poisson=0.3, A=2e-3))
+    logs, counters = [], []
+    for mode in ("cells", "list"):
+        sim = Simulation(state, collision=rule, engine={"neighbours": mode})
+        sim.engine.enable_log()
+        sim.run(until_time=3.0)
+        logs.append(sim.engine.take_log())
+        counters.append(sim.engine.emd_counters())
+    assert counters[0] == counters[1] and counters[0]["emd_contacts"] > 150 and counters[0]["emd_exceptions_b"] > 0
+    assert len(logs[0]) == len(logs[1])
+    assert np.array_equal(np.sort(logs[0][:, 1:3], axis=1), np.sort(logs[1][:, 1:3], axis=1))
+    assert np.abs(logs[0][:, 0] - logs[1][:, 0]).max() < 1e-9
+
+
 def test_energy_balance_with_walls_and_gravity(dim):
     """Kinetic (committed) + potential + dissipated stays constant; particles in a contact that
     reach a wall complete it first (exception b), so the wall acts on their own velocity."""

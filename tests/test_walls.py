@@ -63,8 +63,11 @@ def test_zeno_without_tc_stops_with_a_clear_message(dim):
     with pytest.raises(CollapseError, match="without the clock advancing.*TC model"):
         sim.run(until_time=10.0)
     # stopped at the accumulation point; the last bounces are as high as the round-off of a
-    # position (~1e-16), so the time is resolved to ~sqrt(2e-16 / G) ~ 5e-9
-    assert sim.time == pytest.approx(t_inf, abs=1e-8)
+    # position (h ~ 5e-17), lasting tau = 2 sqrt(2h / G) ~ 7e-9, and the bounces they stand for
+    # tau e / (1 - e) ~ 3e-8: the time is resolved to that (where in it the run stops depends on
+    # the round-off of the clock's re-basings, i.e. on how many other events, such as cell
+    # crossings, the run had)
+    assert sim.time == pytest.approx(t_inf, abs=5e-8)
     assert sim.state.position[0, -1] - R + 0.5 >= -1e-12  # consistent state: on the floor, not through it
 
 

@@ -29,12 +29,12 @@ import math
 import numpy as np
 
 from . import layout as L
-from .cells import cell_insert, cell_of_point, cell_remove, walk_around, walk_next
+from .cells import cell_insert, cell_of_point, cell_remove, count_work, walk_around, walk_next
 from .jit import hot, jit, leaf
 from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTACT_SOFT, NB_LIST
 from .lookup import matrix_of_restitution
 from .nblist import SQRT3, rebuild_list
-from .predict import INF, advance, flight, separation, wrap3
+from .predict import INF, advance, contact_time, flight, separation, wrap3
 from .schedule import repredict, wrap_into_box
 from .twobody import collision_frame, lab_frame_update
 from .twobody_friction import frictional_update
@@ -64,8 +64,9 @@ def execute_b(p, t, P, count, emd, geo):
 
 
 @jit
-def relocation_blocked(p, x, y, z, i, j, t, P, grid, geo, walls, cbuf):
-    """Exception a) test: would particle ``p`` moved to ``(x, y, z)`` overlap a wall or a third particle?
+def relocation_scan(p, x, y, z, v, i, j, t, P, grid, geo, walls, cbuf):
+    """Exception a) test: would particle ``p`` moved to ``(x, y, z)`` overlap a wall or a third
+    particle? And, in the same pass, the earliest contact of ``p`` moving on with velocity ``v``.
 
     Candidates are the particles binned in the 3^d cells around the point: cells are at least
     as wide as the largest contact distance plus the list skin (list mode bins list centres,
@@ -73,28 +74,50 @@ def relocation_blocked(p, x, y, z, i, j, t, P, grid, geo, walls, cbuf):
     ``i`` and ``j`` (the pair itself) are skipped; third particles are taken at time ``t``. A
     third particle that ``p`` already overlaps (its former partner right after exception b,
     still at the residual overlap of their contact) blocks only if the move deepens the overlap.
+
+    Returns ``(blocked, dt, k)``: in cells mode ``(dt, k)`` is the pair prediction of ``p`` after
+    the A event (the 3^d cells around the point are those ``p`` is binned in after it, and the
+    partner, moving with the same ``v``, never meets it), which then saves the full re-prediction
+    of both partners (cells mode only: list mode predicts over the lists). ``dt`` is meaningless
+    when ``blocked``.
     """
     r = P[p, L.R]
     new = (x, y, z)
+    best, bk = INF, -1
     for k in range(3):
         if walls & (1 << k):
             lo, hi = wall_planes(k, t, geo)
             if new[k] - r < lo or new[k] + r > hi:
-                return True
+                return True, best, bk
     x, y, z = wrap3(x, y, z, geo)  # into the box: the point's own cell
     nc, s, k = walk_around(grid, cell_of_point(x, y, z, geo, grid), geo, cbuf)
+    tested = 0
     while k >= 0:
         if k != i and k != j:
-            kx, ky, kz, _vx, _vy, _vz = flight(P, k, t, geo)
+            kx, ky, kz, kvx, kvy, kvz = flight(P, k, t, geo)
             dx, dy, dz = wrap3(x - kx, y - ky, z - kz, geo)
             sig = r + P[k, L.R]
             d2 = dx * dx + dy * dy + dz * dz
             if d2 < sig * sig:
                 ox, oy, oz = wrap3(P[p, L.X] - kx, P[p, L.Y] - ky, P[p, L.Z] - kz, geo)
                 if d2 < ox * ox + oy * oy + oz * oz:
-                    return True
+                    return True, best, bk
+            dt = contact_time(dx, dy, dz, v[0] - kvx, v[1] - kvy, v[2] - kvz, sig)
+            if dt < best:
+                best, bk = dt, k
+            tested += 1
         nc, s, k = walk_next(grid, cbuf, nc, s, k)
-    return False
+    count_work(grid, nc, tested)
+    return False, best, bk
+
+
+@leaf
+def _set_prediction(ev, count, p, t, dt, k):
+    """The pair event of ``p``: a contact with ``k`` after ``dt`` (none: ``k = -1``), as :func:`.schedule.predict_pair` sets it."""
+    ev.pair_t[p] = t + dt if k >= 0 else INF
+    ev.pair_j[p] = k
+    if k >= 0:
+        ev.pair_c[p] = count[k]
 
 
 @leaf
@@ -252,9 +275,10 @@ def _make_emd_contact(frictional):
             return CONTACT_INSTANT
         work = emd.work
         walls = ip[L.IP_WALLS]
-        if relocation_blocked(i, work[4, 0], work[4, 1], work[4, 2], i, j, t, P, grid, geo, walls, cbuf) or relocation_blocked(
-            j, work[5, 0], work[5, 1], work[5, 2], i, j, t, P, grid, geo, walls, cbuf
-        ):
+        blocked, dt_i, k_i = relocation_scan(i, work[4, 0], work[4, 1], work[4, 2], work[6], i, j, t, P, grid, geo, walls, cbuf)
+        if not blocked:
+            blocked, dt_j, k_j = relocation_scan(j, work[5, 0], work[5, 1], work[5, 2], work[6], i, j, t, P, grid, geo, walls, cbuf)
+        if blocked:
             cnt[L.C_EMD_EXC_A] += 1
             return CONTACT_INSTANT
         jn = 0.0  # virial r_ij . J with the impulse J on i over the whole contact
@@ -285,6 +309,9 @@ def _make_emd_contact(frictional):
             return CONTACT_LIST_FULL
         if not rebin(j, t, P, image, grid, lists, geo, mode, fp, cbuf):
             return CONTACT_LIST_FULL
+        if mode != NB_LIST:  # the pair predictions of the relocation scans (the loop skips its own)
+            _set_prediction(ev, count, i, t, dt_i, k_i)
+            _set_prediction(ev, count, j, t, dt_j, k_j)
         return CONTACT_SOFT
 
     return emd_contact

@@ -336,11 +336,16 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well, grow
                         cnt[L.C_COLL] += 1
                         _log_collision(clog, cnt, log_cap, t, i, j, vn, vt)
                     # a path of its own (as crossings have): a site shared by several event kinds
-                    # mixes their branch histories, which cost cell-mode gases 20-30 % (measured)
-                    predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate)
+                    # mixes their branch histories, which cost cell-mode gases 20-30 % (measured).
+                    # An eMD* A event in cells mode has predicted both partners' pair events in
+                    # its relocation scans (emdstar.relocation_scan)
+                    predicted = emd_on and outcome == CONTACT_SOFT and mode != NB_LIST
+                    if not predicted:
+                        predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate)
                     predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t, grow, rate)
                     requeue(q, ev, i)
-                    predict_pair(j, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate)
+                    if not predicted:
+                        predict_pair(j, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate)
                     predict_aux(j, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t, grow, rate)
                     requeue(q, ev, j)
                     continue
