@@ -97,7 +97,7 @@ def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, 
         scan_cells(i, t, P, count, ev, grid, geo, cbuf, np.int64(-1), np.int64(0))
 
 
-@jit
+@hot
 def _crossing_event(i, t, P, ev, grid, geo):
     """Earliest cell-face crossing of ``i`` (physics.md §1.4)."""
     gi, gf = grid.shape, grid.size
@@ -184,7 +184,7 @@ def repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb, 
     requeue(q, ev, i)
 
 
-@jit
+@hot
 def cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf):
     """Move ``i`` into the neighbouring cell (by direction, never by flooring) and scan the new layer."""
     gi = grid.shape
