@@ -43,9 +43,10 @@ def test_same_collisions_and_final_state_as_brute_force(dim, mode):
 @pytest.mark.parametrize("cell_size", [1.0, 2.5, None])
 def test_wide_cells_with_a_size_ratio_of_ten_match_brute_force(dim, cell_size):
     # dilute, radii 0.1-1.0 (equal masses: no fast dust amplifying round-off above 1e-9 in a few
-    # collisions): the cost model's cells (None) are wider than the largest contact distance;
-    # 1.0 and 2.5 pin the edge. Every choice must give the reference's collisions, then run on
-    # with the debug checks of every collision.
+    # collisions): 1.0 pins the edge, 2.5 is capped at 4 cells per axis (3D) and the cost model's
+    # cells (None) are wider than the largest contact distance in 2D (19, 7 and 10 cells; in 3D
+    # the largest particles set them: 6, 4 and 6). Every choice must give the reference's
+    # collisions, then run on with the debug checks of every collision.
     n, eta, t_end = (120, 0.1, 3.0) if dim == 2 else (100, 0.05, 3.0)
     s = edmd.random_packing(n, eta, dim=dim, seed=9, radius={"kind": "uniform", "min": 0.1, "max": 1.0})
     s = edmd.maxwell_boltzmann(s, 1.0, seed=10)
@@ -154,3 +155,18 @@ def test_work_per_event_does_not_grow_with_n(dim, mode, eta):
     small, large = per_event
     assert np.all(small > 0.5)
     assert np.all(large < 1.15 * small), (small, large)
+
+
+def test_cells_need_four_cells_per_periodic_axis_and_auto_falls_back_to_lists():
+    """A dilute thin slab: the memory cap on the cell count leaves 3 cells across it, where two
+    cells are adjacent through two periodic images (collisions through the second were missed).
+    'cells' refuses it naming the problem, 'auto' takes lists and runs."""
+    rng = np.random.default_rng(3)
+    pos = np.c_[rng.uniform(-100, 100, (1000, 2)), rng.uniform(-2.5, 2.5, 1000)]
+    s = edmd.State(position=pos, velocity=rng.normal(size=(1000, 3)), radius=0.01, mass=1.0, box=[200, 200, 5])
+    with pytest.raises(edmd.StateError, match=">= 4 cells on every periodic axis.*memory cap"):
+        edmd.Simulation(s, engine={"neighbours": "cells"})
+    sim = edmd.Simulation(s, engine=EngineOptions(neighbours="auto", debug=True))
+    assert sim.engine.mode == "list"
+    sim.run(max_events=20_000)
+    assert abs(sim.state.kinetic_energy() / s.kinetic_energy() - 1) < 1e-10

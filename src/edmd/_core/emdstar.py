@@ -34,7 +34,7 @@ from .jit import hot, jit, leaf
 from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTACT_SOFT, NB_LIST
 from .lookup import matrix_of_restitution
 from .nblist import SQRT3, rebuild_list
-from .predict import INF, advance, contact_time, flight, separation, wrap3
+from .predict import INF, advance, box_shift, contact_time, flight, separation, wrap3
 from .schedule import repredict, wrap_into_box
 from .twobody import collision_frame, lab_frame_update
 from .twobody_friction import frictional_update
@@ -64,9 +64,10 @@ def execute_b(p, t, P, count, emd, geo):
 
 
 @jit
-def relocation_scan(p, x, y, z, v, i, j, t, P, grid, geo, walls, cbuf):
-    """Exception a) test: would particle ``p`` moved to ``(x, y, z)`` overlap a wall or a third
-    particle? And, in the same pass, the earliest contact of ``p`` moving on with velocity ``v``.
+def relocation_scan(p, x, y, z, v, i, j, t, P, grid, geo, walls, cbuf, predict):
+    """Exception a) test: would particle ``p`` moved to ``(x, y, z)`` (as it will be stored) overlap
+    a wall or a third particle? And (``predict``), in the same pass, the earliest contact of ``p``
+    moving on with velocity ``v``.
 
     Candidates are the particles binned in the 3^d cells around the point: cells are at least
     as wide as the largest contact distance plus the list skin (list mode bins list centres,
@@ -75,11 +76,11 @@ def relocation_scan(p, x, y, z, v, i, j, t, P, grid, geo, walls, cbuf):
     third particle that ``p`` already overlaps (its former partner right after exception b,
     still at the residual overlap of their contact) blocks only if the move deepens the overlap.
 
-    Returns ``(blocked, dt, k)``: in cells mode ``(dt, k)`` is the pair prediction of ``p`` after
-    the A event (the 3^d cells around the point are those ``p`` is binned in after it, and the
-    partner, moving with the same ``v``, never meets it), which then saves the full re-prediction
-    of both partners (cells mode only: list mode predicts over the lists). ``dt`` is meaningless
-    when ``blocked``.
+    Returns ``(blocked, dt, k)``: with ``predict`` (cells mode) ``(dt, k)`` is the pair prediction
+    of ``p`` after the A event: the point is wrapped as :func:`rebin` wraps the stored position,
+    so the 3^d cells around it are those ``p`` is binned in after the event, and the partner,
+    moving with the same ``v``, never meets it. It saves the full re-prediction of both partners
+    (list mode predicts over the lists). ``dt`` is meaningless when ``blocked``.
     """
     r = P[p, L.R]
     new = (x, y, z)
@@ -89,7 +90,9 @@ def relocation_scan(p, x, y, z, v, i, j, t, P, grid, geo, walls, cbuf):
             lo, hi = wall_planes(k, t, geo)
             if new[k] - r < lo or new[k] + r > hi:
                 return True, best, bk
-    x, y, z = wrap3(x, y, z, geo)  # into the box: the point's own cell
+    x -= box_shift(x, geo[0], geo[3]) * geo[0]  # into the box as wrap_into_box puts the stored position
+    y -= box_shift(y, geo[1], geo[4]) * geo[1]
+    z -= box_shift(z, geo[2], geo[5]) * geo[2]
     nc, s, k = walk_around(grid, cell_of_point(x, y, z, geo, grid), geo, cbuf)
     tested = 0
     while k >= 0:
@@ -102,9 +105,10 @@ def relocation_scan(p, x, y, z, v, i, j, t, P, grid, geo, walls, cbuf):
                 ox, oy, oz = wrap3(P[p, L.X] - kx, P[p, L.Y] - ky, P[p, L.Z] - kz, geo)
                 if d2 < ox * ox + oy * oy + oz * oz:
                     return True, best, bk
-            dt = contact_time(dx, dy, dz, v[0] - kvx, v[1] - kvy, v[2] - kvz, sig)
-            if dt < best:
-                best, bk = dt, k
+            if predict:
+                dt = contact_time(dx, dy, dz, v[0] - kvx, v[1] - kvy, v[2] - kvz, sig)
+                if dt < best:
+                    best, bk = dt, k
             tested += 1
         nc, s, k = walk_next(grid, cbuf, nc, s, k)
     count_work(grid, nc, tested)
@@ -275,9 +279,11 @@ def _make_emd_contact(frictional):
             return CONTACT_INSTANT
         work = emd.work
         walls = ip[L.IP_WALLS]
-        blocked, dt_i, k_i = relocation_scan(i, work[4, 0], work[4, 1], work[4, 2], work[6], i, j, t, P, grid, geo, walls, cbuf)
-        if not blocked:
-            blocked, dt_j, k_j = relocation_scan(j, work[5, 0], work[5, 1], work[5, 2], work[6], i, j, t, P, grid, geo, walls, cbuf)
+        cells = mode != NB_LIST
+        blocked, dt_i, k_i = relocation_scan(i, work[4, 0], work[4, 1], work[4, 2], work[6], i, j, t, P, grid, geo, walls, cbuf, cells)
+        if not blocked:  # (j as it will be stored: in its own periodic frame, see below)
+            jx, jy, jz = P[j, L.X] + (work[5, 0] - work[1, 0]), P[j, L.Y] + (work[5, 1] - work[1, 1]), P[j, L.Z] + (work[5, 2] - work[1, 2])
+            blocked, dt_j, k_j = relocation_scan(j, jx, jy, jz, work[6], i, j, t, P, grid, geo, walls, cbuf, cells)
         if blocked:
             cnt[L.C_EMD_EXC_A] += 1
             return CONTACT_INSTANT
@@ -309,7 +315,7 @@ def _make_emd_contact(frictional):
             return CONTACT_LIST_FULL
         if not rebin(j, t, P, image, grid, lists, geo, mode, fp, cbuf):
             return CONTACT_LIST_FULL
-        if mode != NB_LIST:  # the pair predictions of the relocation scans (the loop skips its own)
+        if cells:  # the pair predictions of the relocation scans (the loop skips its own)
             _set_prediction(ev, count, i, t, dt_i, k_i)
             _set_prediction(ev, count, j, t, dt_j, k_j)
         return CONTACT_SOFT

@@ -55,6 +55,17 @@ def wrap_delta(d, length, half):
 
 
 @leaf
+def box_shift(x, length, half):
+    """Periodic images a coordinate is beyond the box ``[-half, half)`` (``half = inf``: open axis), -1, 0 or 1."""
+    if half < INF:
+        if x >= half:
+            return 1
+        if x < -half:
+            return -1
+    return 0
+
+
+@leaf
 def wrap3(dx, dy, dz, geo):
     """Minimum image of a separation vector (see :func:`edmd._core.layout.make_geo`)."""
     return (

@@ -20,7 +20,7 @@ from .cells import cell_insert, cell_remove, count_work, crossing_time, walk_cel
 from .jit import hot, jit
 from .layout import NB_LIST
 from .nblist import shell_exit_time
-from .predict import INF, contact_time, flight, gap_time, relative_to
+from .predict import INF, box_shift, contact_time, flight, gap_time, relative_to
 from .queue import queue_update
 from .walls import is_moving, moving_wall_time
 from .growth import closer_grow
@@ -216,12 +216,8 @@ def cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf):
 @hot
 def wrap_into_box(P, image, i, geo):
     for k in range(3):
-        half = geo[3 + k]
-        if half < INF:
-            x = P[i, L.X + k]
-            if x >= half:
-                P[i, L.X + k] = x - geo[k]
-                image[i, k] += 1
-            elif x < -half:
-                P[i, L.X + k] = x + geo[k]
-                image[i, k] -= 1
+        x = P[i, L.X + k]
+        shift = box_shift(x, geo[k], geo[3 + k])
+        if shift != 0:
+            P[i, L.X + k] = x - shift * geo[k]
+            image[i, k] += shift

@@ -57,7 +57,8 @@ class EngineOptions:
         debug_tolerance: relative tolerance of the debug checks.
         cell_size: cell edge of ``"cells"`` mode in units of the largest contact distance
             (>= 1); ``None`` picks it from the density by the cost model of
-            :func:`edmd.run.neighbours.cell_edge`.
+            :func:`edmd.run.neighbours.cell_edge`. Either is capped at a quarter of the shortest
+            periodic box length (4 cells per periodic axis at least); list mode ignores it.
     """
 
     neighbours: str = "auto"
@@ -194,14 +195,18 @@ class Engine:
         reach = list_reach(self.fp)
         sigma_max = 2.0 * float(state.radius.max()) * reach  # the largest interaction range
         periodic_len = self.box[: self.dim][self.periodic]
+        periodic3 = np.r_[self.periodic, [False] * (3 - self.dim)]
         if mode == "cells":
             short = periodic_len[periodic_len < 4.0 * sigma_max]
-            if short.size:
+            cells = None if short.size else self._cell_grid(state, sigma_max, periodic_len, periodic3)
+            if cells is None:  # fewer than 4 cells on a periodic axis: a pair of cells would be adjacent through two images
                 if opt.neighbours == "cells":
-                    raise StateError(
-                        f"neighbours='cells' needs periodic box lengths >= 4 x the largest contact distance "
-                        f"({4 * sigma_max:g}), got {short.min():g}; use neighbours='list' or a larger box"
+                    detail = (
+                        f"periodic box lengths >= 4 x the largest contact distance ({4 * sigma_max:g}), got {short.min():g}"
+                        if short.size
+                        else "a grid of >= 4 cells on every periodic axis, which the memory cap on the cell count does not allow here"
                     )
+                    raise StateError(f"neighbours='cells' needs {detail}; use neighbours='list' or 'auto'")
                 mode = "list"
         skin = opt.skin * 2.0 * float(state.radius.mean())
         if mode == "list" and periodic_len.size:
@@ -216,25 +221,28 @@ class Engine:
         self.ip[L.IP_MODE] = L.NB_LIST if mode == "list" else L.NB_CELLS
         self.fp[L.FP_SKIN] = skin
         if mode == "list":
-            cell_min = sigma_max + skin
+            self.grid_cells = grid_shape(self.box, periodic3, sigma_max + skin, self.n)
         else:
-            if opt.cell_size is not None:
-                cell_min = opt.cell_size * sigma_max
-            else:
-                cell_min = cell_edge(state.n / state.volume, 2.0 * float(state.radius.mean()), sigma_max, self.dim)
-            if periodic_len.size:  # at least 4 cells on a periodic axis: a pair is then adjacent through one image only
-                cell_min = max(sigma_max, min(cell_min, float(periodic_len.min()) / 4.0))
-        self.grid_cells = grid_shape(self.box, np.r_[self.periodic, [False] * (3 - self.dim)], cell_min, self.n)
-        if mode == "cells" and np.any(self.grid_cells[: self.dim][self.periodic] < 4):
-            raise StateError(
-                f"cells mode needs >= 4 cells on every periodic axis, got {self.grid_cells[: self.dim].tolist()} "
-                f"(the memory cap on the cell count coarsened them); use neighbours='list'"
-            )
+            self.grid_cells = cells
         if mode == "list":
             n_density = state.n / state.volume
             reach = sigma_max + skin
             ball = (4.0 / 3.0 * math.pi * reach**3) if self.dim == 3 else (math.pi * reach**2)
             self.list_capacity = max(self.list_capacity, int(1.6 * n_density * ball) + 8)
+
+    def _cell_grid(self, state: State, sigma_max: float, periodic_len, periodic3):
+        """Cells per axis of cells mode: the edge of ``cell_size`` or of the cost model
+        (:func:`.neighbours.cell_edge`), at most a quarter of the shortest periodic length; ``None``
+        when the memory cap leaves fewer than 4 cells on a periodic axis."""
+        opt = self.options
+        if opt.cell_size is not None:
+            edge = opt.cell_size * sigma_max
+        else:
+            edge = cell_edge(state.n / state.volume, 2.0 * float(state.radius.mean()), sigma_max, self.dim)
+        if periodic_len.size:  # >= 4 cells on a periodic axis: a pair of cells is then adjacent through one image only
+            edge = max(sigma_max, min(edge, float(periodic_len.min()) / 4.0))
+        cells = grid_shape(self.box, periodic3, edge, self.n)
+        return None if np.any(cells[: self.dim][self.periodic] < 4) else cells
 
     @property
     def _pair_state(self) -> bool:
