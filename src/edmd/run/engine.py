@@ -575,7 +575,7 @@ class Engine:
         just returned ``ST_TIME`` for a stop time ``>= t``): checkpoints resync at their exact time.
         """
         local = float(self.acc[L.A_NOW]) if t is None else float(t) - self.t_origin
-        self._reload(self.snapshot(self.now if t is None else float(t)), local)
+        self._reload(self.snapshot(self.now if t is None else float(t), checked=True), local)  # (a fault shows here)
 
     def replace(self, state: State):
         """Continue from ``state``, a changed copy of the system at a time no event is due before
@@ -611,8 +611,12 @@ class Engine:
         pos, vel, image = stream_all(self.part.rows, self.part.image, t - self.t_origin, self.geo)
         return pos, vel, image
 
-    def snapshot(self, t: float | None = None) -> State:
-        """The exact state at absolute time ``t`` (default: now), particles in user order."""
+    def snapshot(self, t: float | None = None, checked: bool = False) -> State:
+        """The exact state at absolute time ``t`` (default: now), particles in user order.
+
+        Built without the State's checks (:meth:`State.trusted`: observers take one per output),
+        unless ``checked``: resyncs check what they reload, so an engine fault (a NaN, a particle
+        outside the box) stops the run there with a :class:`StateError` naming it."""
         t = self.now if t is None else t
         pos, vel, image = self.stream(t)
         inv = np.empty(self.n, np.int64)
@@ -637,8 +641,9 @@ class Engine:
             fields["pending_velocity"] = self.emd.pending_dv[inv, :d]
             fields["pending_until"] = self.emd.pending_until[inv] + self.t_origin
             fields["pending_partner"] = np.where(self.emd.partner[inv] >= 0, self.tag[np.maximum(self.emd.partner[inv], 0)], -1).astype(np.int64)
-        if self.well is not None:  # (sorted and checked the State's way: rare)
+        if self.well is not None:  # (sorted and checked the State's way)
             fields["captured_pairs"] = self.tag[captured_pairs(self.pairs)]
+        if checked or self.well is not None:
             return State(**fields, check_overlaps=False)
         return State.trusted(**fields)
 
