@@ -1,6 +1,6 @@
 """Named bundles of the core's arrays: what travels into the compiled functions, field by field.
 
-Each bundle is a :class:`typing.NamedTuple` of arrays (and, for the eMD* tables, float tuples).
+Each bundle is a :class:`typing.NamedTuple` of arrays only (a float tuple in a bundle made every call taking it slow).
 Numba types them as named tuples: a field is read by name (``ev.pair_t``) at no run-time cost,
 and unpacking keeps working. No numeric indexing of bundles is left in the core: a new field
 goes at the end of its bundle and everything that unpacks the whole bundle is updated with it.
@@ -88,9 +88,9 @@ class EMDStarData(NamedTuple):
     pending_until: np.ndarray  #: (N,) local time of the pending B event (inf: none)
     partner: np.ndarray  #: (N,) int32 partner of the pending contact (-1: none)
     values: np.ndarray  #: lookup-table node values (:mod:`.lookup`)
-    table_grid: tuple  #: table geometry (floats)
+    table_grid: np.ndarray  #: (16,) table geometry (an array: a float tuple in a bundle made calls slow)
     central: np.ndarray  #: central-collision table
-    central_grid: tuple  #: its geometry (floats)
+    central_grid: np.ndarray  #: (4,) its geometry
     weights: np.ndarray  #: scratch of the table lookup (lookup.SCRATCH_SHAPE)
     solver: np.ndarray  #: (13, 3) scratch of the direct two-body solver
     work: np.ndarray  #: (11, 3) scratch of the lab-frame update (r1, r2, v1, v2, r1A, r2A, V, D1, D2, spins after a frictional contact)
