@@ -48,8 +48,8 @@ def _link_neighbours(i, P, grid, lists, geo, skin, reach, cbuf, only_higher):
     nc, s, j = walk_around(grid, grid.cell[i], geo, cbuf)
     tested = 0
     while j >= 0:
-        tested += 1
         if j != i and (j > i or not only_higher):
+            tested += 1
             dx, dy, dz = wrap3(cx - centre[j, 0], cy - centre[j, 1], cz - centre[j, 2], geo)
             lim = ri + reach * P[j, R]
             if dx * dx + dy * dy + dz * dz < lim * lim:
