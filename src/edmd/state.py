@@ -148,24 +148,15 @@ class State:
 
         For the engine's snapshots (:meth:`edmd.run.engine.Engine.snapshot`), whose validation
         cost more than the run between two thermo rows of a short run; everything else builds
-        States the checked way. Fields left out take their defaults as :meth:`__post_init__` sets them.
+        States the checked way. Every field is given except the pending eMD* contacts (default:
+        none) and ``captured_pairs`` (default: ``None``).
         """
         state = object.__new__(cls)
         n, d = fields["position"].shape
-        state.angular_velocity = np.zeros((n, 3) if d == 3 else n)
-        state.inertia = None
-        state.image = np.zeros((n, d), np.int64)
-        state.periodic = np.ones(d, bool)
-        state.last_collision = np.full(n, -np.inf)
-        state.pending_velocity = np.zeros((n, d))
-        state.pending_until = np.full(n, np.inf)
-        state.pending_partner = np.full(n, -1, np.int64)
+        state.pending_velocity, state.pending_until, state.pending_partner = np.zeros((n, d)), np.full(n, np.inf), np.full(n, -1, np.int64)
         state.captured_pairs = None
-        state.time = 0.0
         for name, value in fields.items():
             setattr(state, name, value)
-        if state.inertia is None:
-            state.inertia = default_inertia(state.mass, state.radius, d)
         return state
 
     def _set_captured(self, n):

@@ -35,7 +35,7 @@ from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTA
 from .lookup import matrix_of_restitution
 from .nblist import SQRT3, rebuild_list
 from .predict import INF, advance, box_shift, contact_time, flight, separation, wrap3
-from .schedule import repredict, wrap_into_box
+from .schedule import repredict, set_pair, wrap_into_box
 from .twobody import collision_frame, lab_frame_update
 from .twobody_friction import frictional_update
 from .walls import wall_planes
@@ -118,10 +118,11 @@ def relocation_scan(p, x, y, z, v, i, j, t, P, grid, geo, walls, cbuf, predict):
 @leaf
 def _set_prediction(ev, count, p, t, dt, k):
     """The pair event of ``p``: a contact with ``k`` after ``dt`` (none: ``k = -1``), as :func:`.schedule.predict_pair` sets it."""
-    ev.pair_t[p] = t + dt if k >= 0 else INF
-    ev.pair_j[p] = k
     if k >= 0:
-        ev.pair_c[p] = count[k]
+        set_pair(ev, count, p, t + dt, k)
+    else:
+        ev.pair_t[p] = INF
+        ev.pair_j[p] = -1
 
 
 @leaf

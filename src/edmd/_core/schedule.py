@@ -28,7 +28,7 @@ from .wells import closer_well, well_reach
 
 
 @hot
-def _set_pair(ev, count, i, t, j):
+def set_pair(ev, count, i, t, j):
     ev.pair_t[i] = t
     ev.pair_j[i] = j
     ev.pair_c[i] = count[j]
@@ -60,7 +60,7 @@ def scan_cells(i, t, P, count, ev, grid, geo, cbuf, axis, step):
         nc, s, j = walk_next(grid, cbuf, nc, s, j)
     count_work(grid, nc, tested)
     if bj >= 0:
-        _set_pair(ev, count, i, t + best, bj)
+        set_pair(ev, count, i, t + best, bj)
 
 
 @hot
@@ -87,7 +87,7 @@ def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, 
             else:
                 best, bj = _closer(xi, yi, zi, vxi, vyi, vzi, ri, P, nbl[i, s], t, geo, best, bj)
         if bj >= 0:
-            _set_pair(ev, count, i, t + best, bj)
+            set_pair(ev, count, i, t + best, bj)
             if well:
                 pairs.kind[i] = bk
             return

@@ -457,12 +457,14 @@ class Config(_Section):
         if self.collision.rule == "emdstar" and self.collision.beta is not None and self.friction is None:
             raise ValueError("collision.beta of rule 'emdstar' is the sticking restitution of frictional contacts: it needs a [friction] section")
         if self.collision.rule == "emdstar" and self.friction is not None:
+            from ..physics.emdstar import STICKING_PAIRINGS, TABLE_CHOICES
+
             pairing = (soft, self.friction.law)
-            if self.collision.beta is None and pairing not in (("dashpot", "linear"), ("hertz", "mindlin")):
+            if self.collision.beta is None and pairing not in STICKING_PAIRINGS:
                 raise ValueError(f"a {pairing[1]} spring with a {pairing[0]} contact has no sticking restitution of its own: give collision.beta (the fallback's beta_0)")
             if pairing == ("dashpot", "mindlin") and self.friction.damping > 0.0:
                 raise ValueError("friction.damping > 0 with law = 'mindlin' on a dashpot contact cannot be solved by eMD* (Mindlin's stiffness vanishes at the touch): use damping = 0 or law = 'linear'")
-            if self.collision.tables not in (None, "default", "exact"):
+            if self.collision.tables not in (None, *TABLE_CHOICES):
                 raise ValueError("collision.tables: frictional contacts are solved directly (no table covers friction)")
         return self
 

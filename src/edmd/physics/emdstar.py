@@ -60,6 +60,8 @@ class EMDStarError(ValueError):
 
 #: the ``tables`` settings that are not paths
 TABLE_CHOICES = ("default", "exact")
+#: (contact law, friction law) pairings with a sticking restitution of their own (:func:`sticking_beta`)
+STICKING_PAIRINGS = (("dashpot", "linear"), ("hertz", "mindlin"))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -202,7 +204,7 @@ def sticking_beta(contact: ContactModel, friction: Friction, inertia_factor: flo
         >>> round(sticking_beta(LinearDashpot(k=7.0), Friction(mu=0.5, stiffness=2.0)), 6)   # k_t / k = 2/7: perfectly rough
         1.0
     """
-    if (contact.name, friction.law) not in (("dashpot", "linear"), ("hertz", "mindlin")):
+    if (contact.name, friction.law) not in STICKING_PAIRINGS:
         raise EMDStarError(f"a {friction.law} spring with a {contact.name} contact has no sticking restitution of its own: give fallback_beta = ...")
     k_scaled = friction.stiffness_for(contact) / contact.constants()[0]
     kappa = 0.5 / inertia_factor

@@ -220,11 +220,10 @@ class Engine:
         self.mode = mode
         self.ip[L.IP_MODE] = L.NB_LIST if mode == "list" else L.NB_CELLS
         self.fp[L.FP_SKIN] = skin
-        if mode == "list":
-            self.grid_cells = grid_shape(self.box, periodic3, sigma_max + skin, self.n)
-        else:
+        if mode == "cells":
             self.grid_cells = cells
-        if mode == "list":
+        else:
+            self.grid_cells = grid_shape(self.box, periodic3, sigma_max + skin, self.n)
             n_density = state.n / state.volume
             reach = sigma_max + skin
             ball = (4.0 / 3.0 * math.pi * reach**3) if self.dim == 3 else (math.pi * reach**2)
@@ -532,8 +531,9 @@ class Engine:
                 self.part, self.ev, self.q, self.grid, self.lists, self.geo, self.fp, self.ip,  # (a resync re-bases the wall's phase)
                 self.acc, self.cnt, self.clog, self.cbuf, self.etab, self.emd, self.drive, self.pairs, stop - self.t_origin, chunk,
             )  # fmt: skip
-            budget -= int(self.cnt[L.C_EVENTS]) - before
-            self._take_work(int(self.cnt[L.C_EVENTS]) - before)
+            done = int(self.cnt[L.C_EVENTS]) - before
+            budget -= done
+            self._take_work(done)
             if growing and ((status == L.ST_TIME and stop < t_stop) or (status == L.ST_EVENTS and self._segment_events_left() == 0)):
                 timed = status == L.ST_TIME
                 if timed:
