@@ -166,3 +166,41 @@ def test_cells_need_four_cells_per_periodic_axis_and_auto_falls_back_to_lists():
     assert sim.engine.mode == "list"
     sim.run(max_events=20_000)
     assert abs(sim.state.kinetic_energy() / s.kinetic_energy() - 1) < 1e-10
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_engine_memory_per_particle(dim, mode):
+    """The engine's arrays of a smooth hard-sphere run: the 64-byte row, mass, image, counter,
+    the two events, the calendar, the cell links and, in list mode, the lists; nothing for spins,
+    TC times, eMD* contacts or the bath (size 0 when off). Bounds with the measured figures of
+    benchmarks/README.md ("Memory"): cells 155 B, lists 252 B (capacity 19) in 3D."""
+    s = edmd.maxwell_boltzmann(edmd.lattice(4000, 0.4, dim=dim), 1.0, seed=1)
+    sim = edmd.Simulation(s, engine=EngineOptions(neighbours=mode))
+    e = sim.engine
+    for field in (e.part.omega, e.part.inertia, e.part.last_collision, e.emd.pending_dv, e.emd.pending_until, e.drive.bath_t):
+        assert field.size == 0
+    arrays = [*e.part, *e.ev, *e.q, *e.grid, *e.lists, *e.emd, *e.drive, *e.pairs, e.tag]
+    per_particle = sum(a.nbytes for a in arrays) / s.n
+    lists = e.lists.members.nbytes / s.n if mode == "list" else 0.0
+    assert per_particle - lists < 175 + 28 * (mode == "list"), per_particle
+
+
+@pytest.mark.parametrize("case", ["rough", "spinning", "inertia", "tc"])
+def test_cold_arrays_are_carried_when_needed(dim, case):
+    """Spins (and moments of inertia) are carried by rough runs and by smooth runs of a state that
+    spins or has its own moments of inertia, TC times by TC runs: snapshots give them back."""
+    s = edmd.maxwell_boltzmann(edmd.random_packing(200, 0.2, dim=dim, seed=2), 1.0, seed=3, spin=case == "spinning")
+    if case == "inertia":
+        s.inertia = 0.3 * s.inertia
+    rule = {"rough": edmd.collide.Rough(0.9, -0.5), "tc": edmd.collide.TC(edmd.collide.Inelastic(0.8), duration=1e-3)}.get(case)
+    sim = edmd.Simulation(s, collision=rule)
+    sim.run(max_events=4000)
+    e, out = sim.engine, sim.state
+    assert (e.part.omega.size > 0) == (case != "tc") and (e.part.last_collision.size > 0) == (case == "tc")
+    assert np.array_equal(out.inertia, s.inertia)
+    if case == "spinning":
+        assert np.array_equal(out.angular_velocity, s.angular_velocity)  # smooth: spins never change
+    if case == "rough":
+        assert out.rotational_energy() > 0
+    if case == "tc":
+        assert np.isfinite(out.last_collision).sum() > 100

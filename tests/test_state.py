@@ -129,3 +129,35 @@ def test_engine_snapshot_equals_the_checked_state(dim, rule):
             assert a == b, f.name
     if rule == "emdstar":
         assert np.any(snap.pending_partner >= 0)
+
+
+def test_default_fields_take_no_memory_and_stay_read_only(dim):
+    """Spins, images, TC times and pending contacts left at their default are broadcast constants
+    (no memory per particle); writing into one fails loudly, assigning a new array works, and a
+    copy keeps them constant."""
+    s = two(dim)
+    for name, value in [("angular_velocity", 0.0), ("image", 0), ("last_collision", -np.inf), ("pending_velocity", 0.0), ("pending_until", np.inf), ("pending_partner", -1)]:
+        arr = getattr(s, name)
+        assert not any(arr.strides) and not arr.flags.writeable and np.all(arr == value), name
+    with pytest.raises(ValueError, match="read-only"):
+        s.image[0, 0] = 1
+    c = s.copy()
+    assert not any(c.angular_velocity.strides) and not c.has_pending
+    c.image = np.ones((2, dim), np.int64)
+    assert c.unwrapped_position[0, 0] == 10.0 and s.image[0, 0] == 0
+    assert s.committed_velocity is s.velocity  # (nothing pending: no copy)
+
+
+def test_a_filled_field_is_checked(dim):
+    bad = np.broadcast_to(np.nan, (2, 3) if dim == 3 else (2,))
+    with pytest.raises(StateError, match="angular_velocity is not finite"):
+        two(dim, angular_velocity=bad)
+
+
+def test_check_names_a_non_finite_velocity_of_a_trusted_state(dim):
+    s = two(dim)
+    v = s.velocity.copy()
+    v[1, 0] = np.nan
+    t = State.trusted(**{**{k: getattr(s, k) for k in ("position", "radius", "mass", "box", "time", "angular_velocity", "inertia", "image", "periodic", "last_collision")}, "velocity": v})
+    with pytest.raises(StateError, match=r"velocity is not finite \(NaN or inf\) at particle 1"):
+        t.check()

@@ -13,7 +13,7 @@ from edmd.files.trajectory import frame_count, iter_states, truncate_frames
 def _state(dim):
     s = edmd.random_packing(50, 0.1, dim=dim, radius={"kind": "uniform", "min": 0.3, "max": 0.6}, density=1.5, seed=1)
     s = edmd.maxwell_boltzmann(s, 0.7, seed=2, spin=True)
-    s.image[:] = np.arange(50 * dim).reshape(50, dim) % 5 - 2
+    s.image = np.arange(50 * dim).reshape(50, dim) % 5 - 2
     s.time = 12.345678901234567
     return s
 

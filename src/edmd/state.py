@@ -20,6 +20,11 @@ class StateError(ValueError):
     """An inconsistent or unphysical particle state (the message names the problem)."""
 
 
+def _no_pending(n, d):
+    """The pending eMD* contacts of a state without any: zero increments, no B event, no partner."""
+    return filled(0.0, (n, d)), filled(np.inf, (n,)), filled(-1, (n,), np.int64)
+
+
 def _as_float(name, value, shape):
     arr = np.array(value, dtype=np.float64, copy=True)
     if arr.shape != shape:
@@ -28,6 +33,36 @@ def _as_float(name, value, shape):
         bad = np.argwhere(~np.isfinite(arr))[0]
         raise StateError(f"{name} is not finite (NaN or inf) at index {tuple(int(b) for b in bad)}")
     return arr
+
+
+def filled(value, shape, dtype=np.float64) -> np.ndarray:
+    """A read-only ``shape`` array holding ``value`` everywhere, in no memory (a broadcast scalar).
+
+    The default of the fields that most runs never set (spins, images, TC times, pending eMD*
+    contacts): 96 bytes per particle that a State of a million spheres does not allocate.
+
+    Example:
+        >>> a = filled(-1, (10**6, 3), np.int64)
+        >>> a.shape, int(a[5, 2]), a.flags.writeable, a.strides
+        ((1000000, 3), -1, False, (0, 0))
+    """
+    return np.broadcast_to(np.asarray(value, dtype), shape)
+
+
+def _is_filled(arr) -> bool:
+    """Whether ``arr`` is a :func:`filled` constant (kept as it is: it cannot be written to)."""
+    return isinstance(arr, np.ndarray) and arr.size > 0 and not any(arr.strides)
+
+
+def _field(name, value, default, shape, dtype=np.float64):
+    """A float field: ``default`` everywhere (:func:`filled`) when ``value`` is ``None``, a
+    :func:`filled` constant kept (its one value checked), anything else a checked copy."""
+    if value is None:
+        return filled(default, shape, dtype)
+    if _is_filled(value) and value.shape == shape and value.dtype == dtype:
+        _as_float(name, value.flat[:1], (1,))
+        return value
+    return _as_float(name, value, shape)
 
 
 def default_inertia(mass, radius, dim):
@@ -70,6 +105,10 @@ class State:
         captured_pairs: ``(M, 2)`` pairs inside each other's square well (:class:`edmd.SquareWell`),
             each pair once as ``(i, j)``, ``i < j``, sorted; ``None``: not recorded (a square-well
             run then captures the pairs closer than the well's edge).
+
+    Fields left at their default (``angular_velocity``, ``image``, ``last_collision`` and the
+    pending contacts) are read-only constants that take no memory (:func:`filled`): give a new
+    array (``state.image = ...``) rather than writing into them.
 
     While eMD* contacts are pending, ``velocity`` is the actual flight velocity (the pair's
     centre-of-mass velocity) and observables (:meth:`kinetic_energy`, :meth:`temperature`,
@@ -116,22 +155,19 @@ class State:
         if not math.isfinite(self.time):
             raise StateError("time is not finite")
         spin_shape = (n, 3) if d == 3 else (n,)
-        self.angular_velocity = _as_float(
-            "angular_velocity",
-            np.zeros(spin_shape) if self.angular_velocity is None else self.angular_velocity,
-            spin_shape,
-        )
+        self.angular_velocity = _field("angular_velocity", self.angular_velocity, 0.0, spin_shape)
         inertia = default_inertia(self.mass, self.radius, d) if self.inertia is None else self.inertia
         self.inertia = _as_float("inertia", np.broadcast_to(np.asarray(inertia, float), (n,)), (n,))
-        image = np.zeros((n, d), np.int64) if self.image is None else np.asarray(self.image)
+        image = filled(0, (n, d), np.int64) if self.image is None else np.asarray(self.image)
         if image.shape != (n, d) or not np.issubdtype(image.dtype, np.integer):
             raise StateError(f"image must be integers of shape {(n, d)}, got {image.dtype} {image.shape}")
-        self.image = image.astype(np.int64, copy=True)
+        self.image = image if _is_filled(image) and image.dtype == np.int64 else image.astype(np.int64, copy=True)
         periodic = np.ones(d, bool) if self.periodic is None else np.asarray(self.periodic, bool)
         if periodic.shape != (d,):
             raise StateError(f"periodic must have shape {(d,)}, got {periodic.shape}")
         self.periodic = periodic.copy()
-        last = np.full(n, -np.inf) if self.last_collision is None else np.array(self.last_collision, np.float64)
+        last = self.last_collision
+        last = filled(-np.inf, (n,)) if last is None else last if _is_filled(last) else np.array(last, np.float64)
         if last.shape != (n,) or np.any(np.isnan(last)) or np.any(last == np.inf):
             raise StateError(f"last_collision must be {n} times (or -inf), got shape {last.shape}")
         self.last_collision = last
@@ -153,7 +189,7 @@ class State:
         """
         state = object.__new__(cls)
         n, d = fields["position"].shape
-        state.pending_velocity, state.pending_until, state.pending_partner = np.zeros((n, d)), np.full(n, np.inf), np.full(n, -1, np.int64)
+        state.pending_velocity, state.pending_until, state.pending_partner = _no_pending(n, d)
         state.captured_pairs = None
         for name, value in fields.items():
             setattr(state, name, value)
@@ -177,6 +213,12 @@ class State:
         self.captured_pairs = pairs
 
     def _set_pending(self, n, d):
+        fields = (self.pending_velocity, self.pending_until, self.pending_partner)
+        if all(f is None or _is_filled(f) for f in fields):
+            none = _no_pending(n, d)
+            if all(f is None or (f.shape == g.shape and f.flat[0] == g.flat[0]) for f, g in zip(fields, none)):
+                self.pending_velocity, self.pending_until, self.pending_partner = none
+                return
         dv = np.zeros((n, d)) if self.pending_velocity is None else self.pending_velocity
         self.pending_velocity = _as_float("pending_velocity", dv, (n, d))
         until = np.full(n, np.inf) if self.pending_until is None else np.array(self.pending_until, np.float64)
@@ -196,6 +238,16 @@ class State:
         self.pending_partner = partner.astype(np.int64)
 
     # ------------------------------------------------------------------ checks
+    def check(self):
+        """Raise :class:`StateError` naming the first problem of a :meth:`trusted` state: a position
+        or velocity that is not finite, a radius, mass or moment of inertia that is not positive,
+        a particle outside the box (the checks of a new State but the overlaps)."""
+        for name in ("position", "velocity"):
+            bad = np.flatnonzero(~np.isfinite(getattr(self, name)).all(axis=1))
+            if bad.size:
+                raise StateError(f"{name} is not finite (NaN or inf) at particle {int(bad[0])}: {getattr(self, name)[bad[0]].tolist()}")
+        self._check_values()
+
     def _check_values(self):
         for name in ("radius", "mass", "inertia"):
             arr = getattr(self, name)
@@ -212,10 +264,11 @@ class State:
                 f"particle {big} (diameter {2.0 * float(self.radius[big])!r}) does not fit the periodic box length "
                 f"{float(self.box[k])!r} (axis {'xyz'[k]}): it would overlap its own periodic image"
             )
-        lo, hi = -0.5 * self.box, 0.5 * self.box
-        inner = self.position - self.radius[:, None] * (~self.periodic)[None, :]
-        outer = self.position + self.radius[:, None] * (~self.periodic)[None, :]
-        out = np.flatnonzero(np.any((inner < lo - 1e-12 * self.box) | (outer > hi + 1e-12 * self.box), axis=1))
+        out = np.zeros(self.n, bool)
+        for k in range(self.dim):  # (one axis at a time: no temporary copies of every position)
+            x, reach, lo = self.position[:, k], 0.0 if self.periodic[k] else self.radius, 0.5 * self.box[k] * (1.0 + 2e-12)
+            out |= (x - reach < -lo) | (x + reach > lo)
+        out = np.flatnonzero(out)
         if out.size:
             i = out[0]
             raise StateError(
@@ -317,7 +370,7 @@ class State:
     @property
     def committed_velocity(self) -> np.ndarray:
         r"""Velocities with pending eMD* increments applied, :math:`\mathbf v_i + \boldsymbol\Delta_i` (physics.md §4.8)."""
-        return self.velocity + self.pending_velocity
+        return self.velocity if _is_filled(self.pending_velocity) and not self.pending_velocity.flat[0] else self.velocity + self.pending_velocity
 
     def kinetic_energy(self) -> float:
         """Translational kinetic energy (of the committed velocities)."""
@@ -367,6 +420,9 @@ def rescale_temperature(state: State, kT: float) -> State:
         raise ValueError(f"rescaling the velocities at t = {state.time}: the temperature is {temperature}, nothing to rescale")
     scale = np.sqrt(kT / temperature)
     u = state.momentum() / state.mass.sum()
+    if not state.has_pending:
+        state.velocity = u + scale * (state.velocity - u)
+        return state
     state.velocity = u + scale * (state.velocity + state.pending_velocity - u) - scale * state.pending_velocity
     state.pending_velocity = scale * state.pending_velocity
     return state

@@ -111,13 +111,15 @@ def _energy(P, mass, omega, inertia, i, spin):
 
 
 @leaf
-def _kick(P, omega, i, jx, jy, jz, nx, ny, nz, dv, r_over_i, spin):
+def _kick(P, omega, inertia, i, jx, jy, jz, nx, ny, nz, dv, ri, spin):
     """Velocity change ``dv * J`` and spin change ``-(R/I) n x J`` (the same for both partners:
-    ``i`` takes ``J`` at ``-R_i n``, ``j`` takes ``-J`` at ``+R_j n``)."""
+    ``i`` takes ``J`` at ``-R_i n``, ``j`` takes ``-J`` at ``+R_j n``). Without ``spin`` the spins
+    and moments of inertia are not read (their arrays have size 0 in smooth runs)."""
     P[i, L.VX] += jx * dv
     P[i, L.VY] += jy * dv
     P[i, L.VZ] += jz * dv
     if spin:
+        r_over_i = ri / inertia[i]
         omega[i, 0] -= r_over_i * (ny * jz - nz * jy)
         omega[i, 1] -= r_over_i * (nz * jx - nx * jz)
         omega[i, 2] -= r_over_i * (nx * jy - ny * jx)
@@ -171,8 +173,8 @@ def collide_pair(t, P, mass, omega, inertia, tlast, i, j, geo, fp, ip, etab, acc
     if spin:
         k0 = _energy(P, mass, omega, inertia, i, False) + _energy(P, mass, omega, inertia, j, False)
         e0 = _energy(P, mass, omega, inertia, i, True) + _energy(P, mass, omega, inertia, j, True)
-    _kick(P, omega, i, jx, jy, jz, nx, ny, nz, 1.0 / mi, ri / inertia[i], spin)
-    _kick(P, omega, j, jx, jy, jz, nx, ny, nz, -1.0 / mj, rj / inertia[j], spin)
+    _kick(P, omega, inertia, i, jx, jy, jz, nx, ny, nz, 1.0 / mi, ri, spin)
+    _kick(P, omega, inertia, j, jx, jy, jz, nx, ny, nz, -1.0 / mj, rj, spin)
     if spin:
         dk = _energy(P, mass, omega, inertia, i, False) + _energy(P, mass, omega, inertia, j, False) - k0
         lost = e0 - _energy(P, mass, omega, inertia, i, True) - _energy(P, mass, omega, inertia, j, True)
@@ -229,12 +231,12 @@ def collide_wall(t, P, mass, omega, inertia, tlast, i, axis, face, geo, fp, ip, 
     if uw != 0.0:  # into the wall's frame
         P[i, L.VX + axis] -= uw
         gx, gy, gz = P[i, L.VX], P[i, L.VY], P[i, L.VZ]
-    jx, jy, jz, vn, vt = impulse(
-        nx, ny, nz, gx, gy, gz, ri * omega[i, 0], ri * omega[i, 1], ri * omega[i, 2],
-        inv_mu, inv_mt, e, beta, fp[L.FP_WALL_MU], tangent,
-    )  # fmt: skip
+    wx = wy = wz = 0.0
+    if spin:
+        wx, wy, wz = ri * omega[i, 0], ri * omega[i, 1], ri * omega[i, 2]
+    jx, jy, jz, vn, vt = impulse(nx, ny, nz, gx, gy, gz, wx, wy, wz, inv_mu, inv_mt, e, beta, fp[L.FP_WALL_MU], tangent)
     e0 = _energy(P, mass, omega, inertia, i, spin)
-    _kick(P, omega, i, jx, jy, jz, nx, ny, nz, 1.0 / mi, ri / inertia[i], spin)
+    _kick(P, omega, inertia, i, jx, jy, jz, nx, ny, nz, 1.0 / mi, ri, spin)
     e1 = _energy(P, mass, omega, inertia, i, spin)
     if uw != 0.0:
         P[i, L.VX + axis] += uw

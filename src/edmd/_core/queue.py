@@ -247,8 +247,11 @@ def calendar_shape(keys, t_now, events_per_bucket=8.0):
         (1000, 2400)
     """
     n = keys.shape[0]
-    dt = np.sort(np.maximum(keys[np.isfinite(keys)] - t_now, 0.0))
-    later = dt[dt > 0.0]
+    dt = keys[np.isfinite(keys)]  # (a copy, then changed in place: one array the size of keys)
+    dt -= t_now
+    np.maximum(dt, 0.0, out=dt)
+    dt.sort()
+    later = dt[np.searchsorted(dt, 0.0, side="right") :]
     if later.size < 2:
         return 1.0, 1
     k = min(later.size - 1, max(8, n // 4))

@@ -7,19 +7,23 @@ from .predict import flight
 
 
 @jit_alloc
-def stream_all(P, image, t, geo):
-    """Positions (wrapped into the box), velocities and images of every particle at time ``t``.
+def stream_all(P, image, tag, t, d, geo):
+    """Positions (wrapped into the box), velocities and images of every particle at time ``t``,
+    in the user's order (particle ``i`` of the engine is ``tag[i]``) and ``d`` dimensions.
 
-    The engine's own arrays are not modified (physics.md §1.1: lazy update, evaluated on demand).
+    The engine's own arrays are not modified (physics.md §1.1: lazy update, evaluated on demand);
+    the copies are made once, in their final order (no intermediate arrays of every particle).
     """
     n = P.shape[0]
-    pos = np.empty((n, 3))
-    vel = np.empty((n, 3))
-    img = np.empty((n, 3), np.int64)
+    pos = np.empty((n, d))
+    vel = np.empty((n, d))
+    img = np.empty((n, d), np.int64)
     for i in range(n):
         x, y, z, vx, vy, vz = flight(P, i, t, geo)
         r = (x, y, z)
-        for k in range(3):
+        v = (vx, vy, vz)
+        u = tag[i]
+        for k in range(d):
             xk = r[k]
             m = image[i, k]
             length, half = geo[k], geo[3 + k]
@@ -30,9 +34,7 @@ def stream_all(P, image, t, geo):
                 while xk < -half:
                     xk += length
                     m -= 1
-            pos[i, k] = xk
-            img[i, k] = m
-        vel[i, 0] = vx
-        vel[i, 1] = vy
-        vel[i, 2] = vz
+            pos[u, k] = xk
+            img[u, k] = m
+            vel[u, k] = v[k]
     return pos, vel, img

@@ -32,7 +32,7 @@ from ..physics import collide
 from ..physics.emdstar import EMDStar, emd_bundle
 from .memory import grid_shape
 from .neighbours import cell_edge
-from ..state import State, StateError, rescale_temperature
+from ..state import State, StateError, default_inertia, filled, rescale_temperature
 
 #: ``INFO`` when a run must compile its loop variant first (the CLI shows it)
 log = logging.getLogger("edmd.compile")
@@ -356,24 +356,21 @@ class Engine:
         if self.growth is not None:
             self._start_segment()
             self._choose_neighbours(state)  # (the radii have grown: cells of the list grid, skin, capacity)
+        for bundle in ("part", "ev", "q", "grid", "lists", "emd", "drive", "pairs"):
+            setattr(self, bundle, None)  # (a resync's old arrays go before the new ones are made)
         n = self.n
-        pos = state.points
-        order = self._spatial_order(pos)
-        self.tag = order.astype(np.int64)
+        order = self._spatial_order(state)
+        self.tag = order.astype(np.int32)
         P = np.zeros((n, L.ROW))
-        P[:, : self.dim] = state.position[order]
-        P[:, 3 : 3 + self.dim] = state.velocity[order]
+        for k in range(self.dim):  # (a column at a time: no temporary copy of every position)
+            P[:, k] = state.position[order, k]
+            P[:, 3 + k] = state.velocity[order, k]
         P[:, L.R] = state.radius[order]
-        omega = np.zeros((n, 3))
-        if self.dim == 3:
-            omega[:] = state.angular_velocity[order]
-        else:
-            omega[:, 2] = state.angular_velocity[order]
         image = np.zeros((n, 3), np.int32)
-        image[:, : self.dim] = state.image[order]
-        tlast = state.last_collision[order] - self.t_origin
-        self.part = Particles(P, state.mass[order].copy(), omega, state.inertia[order].copy(), image, np.zeros(n, np.int32), tlast)
-        self.emd = emd_bundle(n, self.emd_rule, self._pending_arrays(state, order))
+        for k in range(self.dim):
+            image[:, k] = state.image[order, k]
+        self.part = Particles(P, state.mass[order], *self._spins(state, order), image, np.zeros(n, np.int32), self._tc_times(state, order))
+        self.emd = emd_bundle(n if self.emd_rule is not None else 0, self.emd_rule, self._pending_arrays(state, order))
         self.ev = new_events(n)
         self.pairs = new_pairs(n, 0 if self.well is None else self.well.capacity(state.radius, self.dim))
         self._derive_captures = self.well is not None and state.captured_pairs is None
@@ -384,6 +381,31 @@ class Engine:
         if new and self.well is not None and not self._derive_captures:
             self._check_captured(state)
 
+    def _spins(self, state: State, order: np.ndarray):
+        """Spins and moments of inertia in internal order, or arrays of size 0 when nothing turns:
+        a smooth rule at a wall and between particles, and no spin in ``state`` (32 bytes per
+        particle that most runs never read). Snapshots then give zero spins and the default
+        moments of inertia; a state with other spins or moments keeps them."""
+        rough = self.ip[L.IP_TANGENT] != L.TANGENT_SMOOTH or self.ip[L.IP_WALL_TANGENT] != L.TANGENT_SMOOTH
+        w = state.angular_velocity
+        if not rough and not np.any(w) and np.array_equal(state.inertia, default_inertia(state.mass, state.radius, self.dim)):
+            return np.zeros((0, 3)), np.zeros(0)
+        omega = np.zeros((self.n, 3))
+        if self.dim == 3:
+            for k in range(3):
+                omega[:, k] = w[order, k]
+        else:
+            omega[:, 2] = w[order]
+        return omega, state.inertia[order]
+
+    def _tc_times(self, state: State, order: np.ndarray) -> np.ndarray:
+        """Local times of the last collisions, or an array of size 0 when the TC model is off and
+        ``state`` has none (nothing would read or change them: their snapshots give ``-inf``)."""
+        last = state.last_collision
+        if not self.ip[L.IP_TC] and np.all(last == -np.inf):
+            return np.zeros(0)
+        return last[order] - self.t_origin
+
     def _new_drive(self) -> Drive:
         """The bath's events and the timers after a load at ``t_origin`` (off: every time ``inf``)."""
         axes = np.zeros((2, 3), np.int64)
@@ -391,7 +413,7 @@ class Engine:
         axes[1, 2 if self.dim == 2 else 0 :] = 1  # disks spin about z only
         epoch = np.array([self.t_origin]).view(np.uint64)[0]
         key = np.array([epoch, self.ip[L.IP_BATH_SEED], self.ip[L.IP_KICK_SEED]], np.uint64)
-        drive = Drive(np.full(self.n, np.inf), np.full(L.N_TIMERS, np.inf), np.array([self.t_origin]), key, axes)
+        drive = Drive(np.full(self.n if self.thermostat is not None else 0, np.inf), np.full(L.N_TIMERS, np.inf), np.array([self.t_origin]), key, axes)
         if self.thermostat is not None:
             bath_schedule(drive, self.fp[L.FP_BATH_RATE])
         if self.forcing is not None:
@@ -454,22 +476,34 @@ class Engine:
         return -self.well.depth * 0.5 * float(self.pairs.captured_n.sum())
 
     def _trim_lists(self):
-        """Shrink list rows to the fullest list plus a margin (lists grow again on overflow)."""
+        """Shrink list rows to the fullest list plus a margin (lists grow again on overflow), in
+        place: the rows move to the front of their buffer, which is then cut (no second copy)."""
         nbl, nbl_n, centre = self.lists
+        n, old = nbl.shape
         cap = int(nbl_n.max() * 1.25) + 4
-        if cap < nbl.shape[1]:
-            self.lists = Lists(np.ascontiguousarray(nbl[:, :cap]), nbl_n, centre)
-            self.list_capacity = cap
+        if cap >= old:
+            return
+        self.lists = None
+        flat = nbl.reshape(-1)
+        block = max(1, (1 << 20) // old)
+        for a in range(0, n, block):  # row i moves from i * old to i * cap <= i * old: front to back is safe
+            b = min(n, a + block)
+            flat[a * cap : b * cap] = nbl[a:b, :cap].ravel()
+        del flat
+        nbl.resize((n, cap), refcheck=False)  # (no view of the buffer is left)
+        self.lists = Lists(nbl, nbl_n, centre)
+        self.list_capacity = cap
 
-    def _spatial_order(self, pos):
+    def _spatial_order(self, state: State):
         """Deterministic spatial sort (cell index, then original index) for memory locality."""
         nc = self.grid_cells
-        c = np.zeros(len(pos), np.int64)
-        for k in range(3):
+        c = np.zeros(state.n, np.int64)
+        for k in range(self.dim):
             if nc[k] > 1:
-                ck = np.floor((pos[:, k] + 0.5 * self.box[k]) / (self.box[k] / nc[k])).astype(np.int64)
-                c = c * nc[k] + np.clip(ck, 0, nc[k] - 1)
-        return np.lexsort((np.arange(len(pos)), c))
+                ck = np.floor((state.position[:, k] + 0.5 * self.box[k]) / (self.box[k] / nc[k])).astype(np.int64)
+                c *= nc[k]
+                c += np.clip(ck, 0, nc[k] - 1)
+        return np.argsort(c, kind="stable")
 
     def _rebuild(self):
         """Bin, build neighbour lists and the calendar for particles all at local time 0."""
@@ -485,15 +519,20 @@ class Engine:
             self.list_capacity = int(self.list_capacity * 1.5) + 4
         if self.mode == "list":
             self._trim_lists()
-        keys = np.concatenate([np.minimum(self.ev.pair_t, self.ev.aux_t), self.drive.timer_t])  # timers after the particles
+        keys = np.empty(n + L.N_TIMERS)
+        np.minimum(self.ev.pair_t, self.ev.aux_t, out=keys[:n])
+        keys[n:] = self.drive.timer_t  # timers after the particles
         width, nb = calendar_shape(keys, 0.0, self.options.events_per_bucket)
         self.q = new_queue(n + L.N_TIMERS, nb)
         queue_build(self.q, keys, 0.0, width, nb)
+        del keys
         self.acc[L.A_NOW] = 0.0
         self.acc[L.A_LAST_T] = 0.0
-        committed = self.part.rows[:, L.VX : L.VZ + 1] + self.emd.pending_dv  # particles are all at local time 0
-        self.acc[L.A_KE] = 0.5 * float(self.part.mass @ np.sum(committed**2, axis=1))
-        self.acc[L.A_PX : L.A_PZ + 1] = self.part.mass @ committed
+        committed = self.part.rows[:, L.VX : L.VZ + 1]  # particles are all at local time 0
+        if self.emd_rule is not None:
+            committed = committed + self.emd.pending_dv
+        self.acc[L.A_KE] = 0.5 * float(np.einsum("i,ij,ij->", self.part.mass, committed, committed))
+        self.acc[L.A_PX : L.A_PZ + 1] = np.einsum("i,ij->j", self.part.mass, committed)
         self.events_at_sync = int(self.cnt[L.C_EVENTS])
 
     # ------------------------------------------------------------------ running
@@ -607,9 +646,14 @@ class Engine:
 
     # ------------------------------------------------------------------ observation
     def stream(self, t: float):
-        """Internal-order positions (wrapped), velocities and images at absolute time ``t``."""
-        pos, vel, image = stream_all(self.part.rows, self.part.image, t - self.t_origin, self.geo)
-        return pos, vel, image
+        """User-order positions (wrapped), velocities and images at absolute time ``t``."""
+        return stream_all(self.part.rows, self.part.image, self.tag, t - self.t_origin, self.dim, self.geo)
+
+    def _user_order(self, values: np.ndarray) -> np.ndarray:
+        """``values`` of the particles in internal order, in the user's order."""
+        out = np.empty_like(values)
+        out[self.tag] = values
+        return out
 
     def snapshot(self, t: float | None = None, checked: bool = False) -> State:
         """The exact state at absolute time ``t`` (default: now), particles in user order.
@@ -619,33 +663,37 @@ class Engine:
         outside the box) stops the run there with a :class:`StateError` naming it."""
         t = self.now if t is None else t
         pos, vel, image = self.stream(t)
-        inv = np.empty(self.n, np.int64)
-        inv[self.tag] = np.arange(self.n)
-        d = self.dim
-        P, mass, omega, inertia = self.part.rows, self.part.mass, self.part.omega, self.part.inertia
-        spin = omega[inv] if d == 3 else omega[inv, 2]
+        d, n = self.dim, self.n
+        omega, inertia, tlast = self.part.omega, self.part.inertia, self.part.last_collision
+        radius = self._user_order(self.part.rows[:, L.R])
+        radius *= 1.0 + self.fp[L.FP_GROW_LOCAL] * (t - self.t_origin)
+        m = self._user_order(self.part.mass)
         fields = {
-            "position": pos[inv, :d],
-            "velocity": vel[inv, :d],
-            "radius": P[inv, L.R] * (1.0 + self.fp[L.FP_GROW_LOCAL] * (t - self.t_origin)),
-            "mass": mass[inv],
+            "position": pos,
+            "velocity": vel,
+            "radius": radius,
+            "mass": m,
             "box": self.box_user.copy(),
             "time": float(t),
-            "angular_velocity": spin,
-            "inertia": inertia[inv],
-            "image": image[inv, :d].astype(np.int64),
+            "angular_velocity": self._user_order(omega if d == 3 else omega[:, 2]) if len(omega) else filled(0.0, (n, 3) if d == 3 else (n,)),
+            "inertia": self._user_order(inertia) if len(inertia) else default_inertia(m, radius, d),
+            "image": image,
             "periodic": self.periodic.copy(),
-            "last_collision": self.part.last_collision[inv] + self.t_origin,
+            "last_collision": self._user_order(tlast + self.t_origin) if len(tlast) else filled(-np.inf, (n,)),
         }
         if self.emd_rule is not None:
-            fields["pending_velocity"] = self.emd.pending_dv[inv, :d]
-            fields["pending_until"] = self.emd.pending_until[inv] + self.t_origin
-            fields["pending_partner"] = np.where(self.emd.partner[inv] >= 0, self.tag[np.maximum(self.emd.partner[inv], 0)], -1).astype(np.int64)
+            partner = self.emd.partner
+            fields["pending_velocity"] = self._user_order(self.emd.pending_dv[:, :d])
+            fields["pending_until"] = self._user_order(self.emd.pending_until + self.t_origin)
+            fields["pending_partner"] = self._user_order(np.where(partner >= 0, self.tag[np.maximum(partner, 0)], -1).astype(np.int64))
         if self.well is not None:  # (sorted and checked the State's way)
             fields["captured_pairs"] = self.tag[captured_pairs(self.pairs)]
-        if checked or self.well is not None:
+        if self.well is not None:
             return State(**fields, check_overlaps=False)
-        return State.trusted(**fields)
+        state = State.trusted(**fields)
+        if checked:
+            state.check()
+        return state
 
     def _take_work(self, events: int):
         """Move the work counted in the grid and the calendar (since they were made) to :attr:`work`."""

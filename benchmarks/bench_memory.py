@@ -1,0 +1,120 @@
+"""Peak memory of a hard-sphere run, stage by stage, in bytes per particle above the interpreter.
+
+Each case runs in a fresh process: imports and a small warm-up run (compiles or loads the
+core) set the baseline resident memory; then the state is built (``lattice`` or ``random``
+start, Maxwell-Boltzmann velocities), the Simulation made from it (the user's state stays
+alive, as in a script), and ``--events`` events per particle run. The peak resident set of each
+stage comes from the kernel's high-water mark (reset between stages through
+``/proc/self/clear_refs``, Linux), so transient copies count. Also reported: the engine's own
+arrays per particle and the wall-clock time of the set-up.
+
+Usage::
+
+    python benchmarks/bench_memory.py                                  # N = 1e6 and 1e7, eta = 0.5, lists and cells
+    python benchmarks/bench_memory.py --n 1000000 --eta 0.05 --mode cells
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from bench_hard_spheres import engine_bytes, machine_info, write_results
+
+
+def _status(field: str) -> float:
+    """``VmRSS`` / ``VmHWM`` of this process, bytes."""
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith(field + ":"):
+            return float(line.split()[1]) * 1024
+    raise RuntimeError(f"no {field} in /proc/self/status")
+
+
+def _reset_peak() -> None:
+    Path("/proc/self/clear_refs").write_text("5")
+
+
+def measure(n: int, eta: float, mode: str, start: str, events: float) -> dict:
+    """One case, in this process (call through :func:`run_case`)."""
+    import gc
+
+    import edmd
+
+    def build(count):
+        s = edmd.lattice(count, eta) if start == "lattice" else edmd.random_packing(count, eta, seed=1)
+        return edmd.maxwell_boltzmann(s, 1.0, seed=2)
+
+    warm = edmd.Simulation(build(2000), engine={"neighbours": mode})
+    warm.run(max_events=20 * 2000)
+    del warm
+    gc.collect()
+    base = _status("VmRSS")
+    stages = {}
+
+    def stage(name):
+        stages[name] = {"rss": (_status("VmRSS") - base) / n, "peak": (_status("VmHWM") - base) / n}
+        _reset_peak()
+
+    _reset_peak()
+    t0 = time.perf_counter()
+    state = build(n)
+    stage("state")
+    t1 = time.perf_counter()
+    sim = edmd.Simulation(state, engine={"neighbours": mode})
+    t2 = time.perf_counter()
+    stage("simulation")
+    sim.run(max_events=int(events * n))
+    stage("run")
+    return {
+        "n": n,
+        "eta": eta,
+        "start": start,
+        "neighbours": sim.engine.mode,
+        "state_seconds": t1 - t0,
+        "simulation_seconds": t2 - t1,
+        "baseline_mb": base / 2**20,
+        "stages_bytes_per_particle": stages,
+        "peak_bytes_per_particle": max(s["peak"] for s in stages.values()),
+        "engine_bytes_per_particle": engine_bytes(sim) / n,
+    }
+
+
+def run_case(n: int, eta: float, mode: str, start: str, events: float) -> dict:
+    """:func:`measure` in a fresh process (a clean baseline and high-water mark)."""
+    code = f"import json, bench_memory as b; print(json.dumps(b.measure({n}, {eta}, {mode!r}, {start!r}, {events})))"
+    out = subprocess.run([sys.executable, "-c", code], cwd=Path(__file__).parent, capture_output=True, text=True, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--n", type=int, nargs="+", default=[1_000_000, 10_000_000])
+    ap.add_argument("--eta", type=float, nargs="+", default=[0.5])
+    ap.add_argument("--mode", nargs="+", default=["list", "cells"], choices=["auto", "list", "cells"])
+    ap.add_argument("--start", default="lattice", choices=["lattice", "random"])
+    ap.add_argument("--events", type=float, default=2.0, help="events per particle of the run stage")
+    ap.add_argument("--out", default=str(Path(__file__).with_name("results") / "memory.json"))
+    args = ap.parse_args(argv)
+    results = []
+    for n in args.n:
+        for eta in args.eta:
+            for mode in args.mode:
+                r = run_case(n, eta, mode, args.start, args.events)
+                results.append(r)
+                st = r["stages_bytes_per_particle"]
+                print(
+                    f"N={n:9d} eta={eta:.2f} [{r['neighbours']:5s}] peak {r['peak_bytes_per_particle']:4.0f} B/particle "
+                    f"(state {st['state']['peak']:.0f}, simulation {st['simulation']['peak']:.0f}, run {st['run']['peak']:.0f}); "
+                    f"engine {r['engine_bytes_per_particle']:.0f} B/particle; set-up {r['state_seconds']:.1f} + "
+                    f"{r['simulation_seconds']:.1f} s",
+                    flush=True,
+                )
+    write_results(args.out, args, results)
+
+
+if __name__ == "__main__":
+    main()
