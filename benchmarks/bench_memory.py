@@ -1,11 +1,12 @@
 """Peak memory of a hard-sphere run, stage by stage, in bytes per particle above the interpreter.
 
 Each case runs in a fresh process: imports and a small warm-up run (compiles or loads the
-core) set the baseline resident memory; then the state is built (``lattice`` or ``random``
-start, Maxwell-Boltzmann velocities), the Simulation made from it (the user's state stays
+core) set the baseline resident memory; then the state is built (``lattice``, ``random``, or ``replicated``: an amorphous packing of
+``n / 125`` particles tiled 5 x 5 x 5; Maxwell-Boltzmann velocities), the Simulation made from it (the user's state stays
 alive, as in a script), and ``--events`` events per particle run. The peak resident set of each
 stage comes from the kernel's high-water mark (reset between stages through
-``/proc/self/clear_refs``, Linux), so transient copies count. Also reported: the engine's own
+``/proc/self/clear_refs``, Linux), so transient copies count; the last stage takes a snapshot
+(``Simulation.state``), as every observer output does. Also reported: the engine's own
 arrays per particle and the wall-clock time of the set-up.
 
 Usage::
@@ -45,10 +46,16 @@ def measure(n: int, eta: float, mode: str, start: str, events: float) -> dict:
     import edmd
 
     def build(count):
-        s = edmd.lattice(count, eta) if start == "lattice" else edmd.random_packing(count, eta, seed=1)
+        if start == "lattice":
+            s = edmd.lattice(count, eta)
+        elif start == "replicated":  # an amorphous packing of count / 125 tiled 5 x 5 x 5
+            s = edmd.replicate(edmd.random_packing(count // 125, eta, seed=1), [5, 5, 5])
+        else:
+            s = edmd.random_packing(count, eta, seed=1)
         return edmd.maxwell_boltzmann(s, 1.0, seed=2)
 
-    warm = edmd.Simulation(build(2000), engine={"neighbours": mode})
+    warm_state = edmd.replicate(edmd.random_packing(250, eta, seed=1), [2, 2, 2]) if start == "replicated" else build(2000)
+    warm = edmd.Simulation(edmd.maxwell_boltzmann(warm_state, 1.0, seed=2), engine={"neighbours": mode})
     warm.run(max_events=20 * 2000)
     del warm
     gc.collect()
@@ -69,6 +76,9 @@ def measure(n: int, eta: float, mode: str, start: str, events: float) -> dict:
     stage("simulation")
     sim.run(max_events=int(events * n))
     stage("run")
+    snap = sim.state  # what every observer output takes
+    del snap
+    stage("snapshot")
     return {
         "n": n,
         "eta": eta,
@@ -95,7 +105,7 @@ def main(argv=None):
     ap.add_argument("--n", type=int, nargs="+", default=[1_000_000, 10_000_000])
     ap.add_argument("--eta", type=float, nargs="+", default=[0.5])
     ap.add_argument("--mode", nargs="+", default=["list", "cells"], choices=["auto", "list", "cells"])
-    ap.add_argument("--start", default="lattice", choices=["lattice", "random"])
+    ap.add_argument("--start", default="lattice", choices=["lattice", "random", "replicated"], help="replicated: random n / 125, tiled 5 x 5 x 5")
     ap.add_argument("--events", type=float, default=2.0, help="events per particle of the run stage")
     ap.add_argument("--out", default=str(Path(__file__).with_name("results") / "memory.json"))
     args = ap.parse_args(argv)
@@ -108,7 +118,8 @@ def main(argv=None):
                 st = r["stages_bytes_per_particle"]
                 print(
                     f"N={n:9d} eta={eta:.2f} [{r['neighbours']:5s}] peak {r['peak_bytes_per_particle']:4.0f} B/particle "
-                    f"(state {st['state']['peak']:.0f}, simulation {st['simulation']['peak']:.0f}, run {st['run']['peak']:.0f}); "
+                    f"(state {st['state']['peak']:.0f}, simulation {st['simulation']['peak']:.0f}, run {st['run']['peak']:.0f}, "
+                    f"snapshot {st['snapshot']['peak']:.0f}); "
                     f"engine {r['engine_bytes_per_particle']:.0f} B/particle; set-up {r['state_seconds']:.1f} + "
                     f"{r['simulation_seconds']:.1f} s",
                     flush=True,

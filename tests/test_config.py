@@ -1,5 +1,6 @@
 """Configuration files: the documented examples work, mistakes are named."""
 
+import numpy as np
 import pytest
 
 import edmd
@@ -66,6 +67,10 @@ def test_typo_is_named_with_a_suggestion():
         ({"walls": {"viscoelastic": True}}, "walls.viscoelastic needs"),
         ({"run": {"until_time": "soon"}}, "run.until_time"),
         ({"engine": {"neighbours": "octree"}}, "engine.neighbours"),
+        ({"system": {"n": 100, "replicate": [2, 2, 2]}}, "n = 100 is not a multiple of the 8 copies"),
+        ({"system": {"replicate": [2, 2]}}, "replicate needs 3 numbers"),
+        ({"system": {"replicate": [2, 0, 1]}}, "system.replicate"),
+        ({"system": {"replicate": [1, 1, 2]}, "walls": {"axes": ["z"]}}, "replicate tiles the periodic axes only; walls close 'z'"),
     ],
 )
 def test_invalid_values_are_named(data, match):
@@ -192,3 +197,15 @@ def test_engine_debug_reaches_the_engine():
 def test_a_float_for_a_whole_number_gets_a_hint():
     with pytest.raises(ConfigError, match=r"run\.max_events: .*write it without a decimal point or exponent \(1000000\)"):
         parse_config({"run": {"max_events": 1e6}})
+
+
+def test_replicated_start_from_config(dim):
+    """replicate = [2, 2(, 2)]: n / 2^d particles built and relaxed, tiled, velocities drawn anew."""
+    reps = [2] * dim
+    cfg = parse_config({"system": {"dim": dim, "n": 400 * 2**dim, "packing_fraction": 0.45, "init": "random", "kT": 2.0, "replicate": reps}})
+    s = build_state(cfg)
+    assert s.n == 400 * 2**dim and round(s.packing_fraction, 12) == 0.45 and round(s.temperature(), 12) == 2.0
+    assert s.overlapping_pair() is None
+    copies = s.position.reshape(2**dim, 400, dim)
+    assert np.allclose(np.abs(copies[1] - copies[0])[:, 0], s.box[0] / 2)  # copy 1 is copy 0 one base box along x
+    assert not np.allclose(s.velocity[:400], s.velocity[400:800])  # the velocities are not copies

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import edmd
-from edmd import StateError, lattice, maxwell_boltzmann, radii, random_packing
+from edmd import StateError, lattice, maxwell_boltzmann, radii, random_packing, replicate
 
 
 @pytest.mark.parametrize("kind_by_dim", [0, 1])
@@ -125,3 +125,32 @@ def test_polydisperse_lattice_returns_the_arrangement_it_checked():
             assert "cannot be built on a fcc lattice" in str(exc)
             outcomes.add("explained")
     assert outcomes == {"built", "explained"}
+
+
+def test_replicate_tiles_a_packing_without_overlaps(dim):
+    """The copies of a packing whose pairs touch through the periodic faces: no overlap, the same
+    packing fraction, every particle inside the new box, copy k shifted by whole base boxes."""
+    base = maxwell_boltzmann(random_packing(300, 0.5, dim=dim, seed=4, radius={"kind": "uniform", "min": 0.4, "max": 0.6}), 1.0, seed=5, spin=True)
+    counts = [3, 1, 2][:dim]
+    s = replicate(base, counts)
+    assert s.n == 300 * int(np.prod(counts)) and np.array_equal(s.box, base.box * counts)
+    assert abs(s.packing_fraction - base.packing_fraction) < 1e-14
+    assert s.overlapping_pair(1e-12) is None
+    assert np.all(np.abs(s.position) <= 0.5 * s.box)
+    last = s.n - 300  # the last copy, (2, 0, 1) in 3D, (2, 0) in 2D: shifted by a - (c - 1) / 2 base boxes (up to whole new boxes)
+    shift = ((s.position[last:] - base.position) / base.box - (np.array([2, 0, 1][:dim]) - 0.5 * (np.array(counts) - 1))) / counts
+    assert np.allclose(shift - np.round(shift), 0.0, atol=1e-12)
+    for name in ("velocity", "radius", "mass", "inertia", "angular_velocity"):
+        assert np.array_equal(getattr(s, name)[last:], getattr(base, name)), name
+    assert not np.any(s.image)
+
+
+def test_replicate_refuses_walls_and_bad_counts(dim):
+    walled = random_packing(50, 0.1, dim=dim, seed=1, periodic=[True] * (dim - 1) + [False])
+    with pytest.raises(StateError, match="closed by walls"):
+        replicate(walled, [1] * (dim - 1) + [2])
+    assert replicate(walled, [2] + [1] * (dim - 1)).n == 100
+    with pytest.raises(StateError, match=f"replicate needs {dim} whole numbers"):
+        replicate(walled, [2.5] * dim)
+    with pytest.raises(StateError, match="replicate needs"):
+        replicate(walled, [0] * dim)

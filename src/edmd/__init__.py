@@ -14,7 +14,7 @@ from .physics.contact import ContactError, Hertz, LinearDashpot
 from .physics.friction import Friction
 from .run.dem import DEMSimulation
 from .run.engine import CollapseError, EngineError, EngineOptions
-from .initial import lattice, maxwell_boltzmann, radii, random_packing
+from .initial import lattice, maxwell_boltzmann, radii, random_packing, replicate
 from .run.observer import Callback, Observer, Totals
 from .run.simulation import Simulation
 from .state import State, StateError
@@ -70,6 +70,7 @@ __all__ = [
     "parse_config",
     "radii",
     "random_packing",
+    "replicate",
     "read_checkpoint",
     "read_state",
     "read_thermo",

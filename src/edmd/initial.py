@@ -280,6 +280,63 @@ def random_packing(
     return State(position=pos3[:, :dim], velocity=np.zeros((n, dim)), radius=r, mass=m, box=box, periodic=periodic)
 
 
+def replicate(state: State, counts: Sequence[int]) -> State:
+    r"""Tile ``state`` ``counts[k]`` times along each periodic axis ``k`` (LAMMPS ``replicate``).
+
+    Copy :math:`(a_0, a_1, a_2)` of particle :math:`i` sits at
+    :math:`x_k + L_k\,(a_k - (c_k - 1)/2)` in the box of lengths :math:`c_k L_k` (centred, as
+    every box is); it is particle :math:`i + N\,(a_0 + c_0 (a_1 + c_1 a_2))`. Radii, masses, moments
+    of inertia, spins and velocities are copied, images start at zero. A state without overlaps
+    (through its periodic faces too) gives a state without overlaps, at the same packing fraction.
+
+    Made for large starts: an amorphous packing of ``n / 64`` particles relaxed by
+    :func:`random_packing` and replicated 4 x 4 x 4 takes seconds where relaxing ``n`` particles
+    takes minutes to hours. The copies move in step until their velocities are redrawn: follow it
+    with :func:`maxwell_boltzmann`, after which collisions decorrelate them within a few mean free
+    times.
+
+    Example:
+        >>> base = random_packing(500, 0.45, seed=1)
+        >>> s = replicate(base, [2, 1, 3])
+        >>> s.n, bool(np.array_equal(s.box, base.box * [2, 1, 3])), round(s.packing_fraction, 12)
+        (3000, True, 0.45)
+    """
+    counts = np.asarray(counts)
+    if counts.shape != (state.dim,) or not np.issubdtype(counts.dtype, np.integer) or np.any(counts < 1):
+        raise StateError(f"replicate needs {state.dim} whole numbers >= 1 (copies per axis), got {np.asarray(counts).tolist()}")
+    walled = np.flatnonzero((counts > 1) & ~state.periodic)
+    if walled.size:
+        raise StateError(f"replicate: axis {'xyz'[walled[0]]} is closed by walls; only periodic axes can be tiled")
+    if state.has_pending or state.captured_pairs is not None:
+        raise StateError(
+            "replicate: the state has pending eMD* contacts or captured square-well pairs, whose partners would "
+            "not follow the copies; replicate a state without them (e.g. the start before the run)"
+        )
+    copies = int(np.prod(counts))
+    box = state.box * counts
+    shift = np.stack(np.meshgrid(*[np.arange(c) - 0.5 * (c - 1) for c in counts], indexing="ij"), axis=-1)
+    shift = shift.transpose(*reversed(range(state.dim)), state.dim).reshape(copies, state.dim) * state.box
+    pos = (state.position[None, :, :] + shift[:, None, :]).reshape(-1, state.dim)
+    pos -= box * np.floor(pos / box + 0.5)  # (round-off at a face: back into [-L/2, L/2))
+
+    def tiled(a):
+        return np.tile(a, (copies,) + (1,) * (a.ndim - 1))
+
+    spins = state.angular_velocity
+    return State(
+        position=pos,
+        velocity=tiled(state.velocity),
+        radius=tiled(state.radius),
+        mass=tiled(state.mass),
+        box=box,
+        time=state.time,
+        angular_velocity=None if not any(spins.strides) and not spins.flat[0] else tiled(spins),
+        inertia=tiled(state.inertia),
+        periodic=state.periodic,
+        last_collision=None if not np.isfinite(state.last_collision).any() else tiled(state.last_collision),
+    )
+
+
 def maxwell_boltzmann(state: State, kT: float, seed: int = 0, spin: bool = False) -> State:
     r"""Give ``state`` Maxwell–Boltzmann velocities at temperature ``kT`` with zero total momentum.
 

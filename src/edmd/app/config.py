@@ -72,6 +72,9 @@ class SystemConfig(_Section):
     density: float | None = Field(None, gt=0, description="material density: mass = density * volume")
     aspect: list[Annotated[float, Field(gt=0)]] | None = None
     gravity: list[float] | None = Field(None, description="uniform acceleration, d components")
+    replicate: list[Annotated[int, Field(ge=1)]] | None = Field(
+        None, description="copies per axis: build n / prod(replicate) particles, tile them (edmd.replicate), then draw the velocities"
+    )
     from_file: str | None = Field(None, description="start from a frame of this GSD file (other keys then ignored)")
     from_frame: int = Field(-1, description="frame of from_file (negative counts from the end)")
 
@@ -96,6 +99,12 @@ class SystemConfig(_Section):
             raise ValueError("kT: a single particle at zero total momentum is at rest and has no temperature; set kT = 0")
         if self.aspect is not None and self.init == "lattice":
             raise ValueError("'aspect' shapes the box of init = 'random' or 'compress' only (a lattice fixes its own box)")
+        if self.replicate is not None:
+            copies = math.prod(self.replicate)
+            if len(self.replicate) != self.dim:
+                raise ValueError(f"replicate needs {self.dim} numbers (copies per axis)")
+            if self.n % copies:
+                raise ValueError(f"replicate = {self.replicate}: n = {self.n} is not a multiple of the {copies} copies")
         if self.init == "compress" and self.kT <= 0:
             raise ValueError("init = 'compress' needs kT > 0 (the particles fly while they grow)")
         return self
@@ -414,6 +423,9 @@ class Config(_Section):
             raise ValueError("walls.axes: a 2D system has no z axis")
         if self.walls.viscoelastic and self.collision.young is None:
             raise ValueError("walls.viscoelastic needs a viscoelastic material in [collision] (young, poisson, A)")
+        tiled = [axis for axis, c in zip("xyz", self.system.replicate or []) if c > 1]
+        if any(axis in self.walls.axes for axis in tiled):
+            raise ValueError(f"system.replicate tiles the periodic axes only; walls close {[a for a in tiled if a in self.walls.axes][0]!r}")
         if self.vibration is not None and self.vibration.axis not in self.walls.axes:
             raise ValueError(f"vibration.axis = {self.vibration.axis!r} must be one of walls.axes (the vibrating wall is one of its walls)")
         return self
@@ -603,6 +615,7 @@ seed = 1                  # random seed: runs are reproducible
 init = "lattice"          # "lattice" (fcc/sc in 3D, hex/square in 2D), "random" (low density) or
                           # "compress" (random at low density, grown to packing_fraction: dense fluids, glasses)
 # compress_rate = 0.02    # init = "compress": radii grow as R(0) (1 + rate t) (slower: closer to equilibrium)
+# replicate = [4, 4, 4]   # build n / 64 particles, tile them 4 x 4 x 4 (fast large amorphous starts)
 # lattice = "fcc"
 radius = 0.5              # or a distribution, e.g. { kind = "uniform", min = 0.4, max = 0.6 }
 mass = 1.0                # or set density = ... to give mass = density * particle volume

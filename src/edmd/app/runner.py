@@ -18,7 +18,7 @@ from ..files.checkpoint import Checkpoint, CheckpointData, CheckpointError, load
 from .config import Config, ConfigError, dump_config, format_errors, parse_config
 from ..run.engine import EngineError, EngineOptions
 from ..run.memory import check_memory
-from ..initial import lattice, maxwell_boltzmann, random_packing
+from ..initial import lattice, maxwell_boltzmann, random_packing, replicate
 from ..run.observer import Observer
 from ..run.compress import at_radii, compress
 from ..run.simulation import Simulation
@@ -51,6 +51,10 @@ def build_state(cfg: Config) -> State:
     if s.from_file is not None:
         soft = cfg.integrator.kind == "dem" or cfg.collision.rule == "emdstar"  # soft particles may overlap
         return read_state(s.from_file, s.from_frame, check_overlaps=not soft)
+    if s.replicate is not None:
+        copies = math.prod(s.replicate)
+        base = cfg.model_copy(update={"system": s.model_copy(update={"n": s.n // copies, "replicate": None})})
+        return maxwell_boltzmann(replicate(build_state(base), s.replicate), s.kT, seed=s.seed + 2)
     if s.init == "lattice":
         return maxwell_boltzmann(lattice(s.n, s.packing_fraction, kind=s.lattice, **_particles(cfg)), s.kT, seed=s.seed + 1)
     if s.init == "compress":

@@ -1,8 +1,10 @@
 """Memory of a run: an estimate before anything is allocated, a guard, and a bounded cell grid.
 
 A run's peak memory is dominated by per-particle arrays (the State, the engine's rows,
-neighbour lists, the calendar, transient copies at set-up): about :data:`BYTES_PER_PARTICLE`
-(measured peak resident memory of hard-sphere runs, lists or cells, N = 1e4 to 1e7). The cell
+neighbour lists, the calendar, a snapshot for an observer): about :data:`BYTES_PER_PARTICLE`
+(measured peak resident memory of hard-sphere runs, N = 1e6 and 1e7: 250 bytes per particle in
+cells mode, 350 with lists, ~90 more while an observer takes a snapshot; rough, TC or eMD*
+runs carry their own arrays; ``benchmarks/bench_memory.py``). The cell
 grid would add 4 bytes per cell and grows with the box *volume*: at packing fraction 1e-6 a grid
 of one-diameter cells for 1e4 spheres has 5e9 cells. :func:`grid_shape` therefore coarsens the
 cells of dilute systems so that there are at most :data:`MAX_CELLS_PER_PARTICLE` cells per
@@ -20,8 +22,9 @@ import numpy as np
 
 from .._core.cells import grid_shape as _grid_shape
 
-#: peak resident bytes per particle of a run (set-up and event loop, measured)
-BYTES_PER_PARTICLE = 1100
+#: peak resident bytes per particle of a run (set-up, event loop, a snapshot; measured, with a margin
+#: for rough, TC and eMD* arrays)
+BYTES_PER_PARTICLE = 600
 #: bytes of one grid cell (the head of its linked list, int32)
 BYTES_PER_CELL = 4
 #: the cell grid never has more cells than this per particle (dilute systems get larger cells)...
@@ -68,7 +71,7 @@ def estimate_bytes(n: int) -> int:
 
     Example:
         >>> estimate_bytes(10**6) / 1e9
-        1.164
+        0.664
     """
     return int(n) * (BYTES_PER_PARTICLE + MAX_CELLS_PER_PARTICLE * BYTES_PER_CELL)
 
@@ -125,7 +128,7 @@ def check_memory(n: int, max_memory: str | int | None = None):
         >>> check_memory(10**9, max_memory="8G")
         Traceback (most recent call last):
         ...
-        edmd.run.memory.MemoryLimitError: a run of N = 1e+09 particles needs about 1.16e+03 GB (1164 bytes per particle), more than the limit of 8 GB (--max-memory / max_memory): use fewer particles, or raise the limit if the machine has the memory
+        edmd.run.memory.MemoryLimitError: a run of N = 1e+09 particles needs about 664 GB (664 bytes per particle), more than the limit of 8 GB (--max-memory / max_memory): use fewer particles, or raise the limit if the machine has the memory
     """
     need = estimate_bytes(n)
     if max_memory is None:
