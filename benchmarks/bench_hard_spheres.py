@@ -85,7 +85,7 @@ def bench(n: int, eta: float, mode: str, equilibrate: float, measure: float, rep
     msd = float(((sim.state.unwrapped_position - u0) ** 2).sum(axis=1).mean())
     cnt = sim.engine.cnt
     return {
-        "n": n,
+        "n": state.n,
         "eta": eta,
         "replicate": replicate,
         "neighbours": sim.engine.mode,

@@ -129,7 +129,7 @@ def test_polydisperse_lattice_returns_the_arrangement_it_checked():
 
 def test_replicate_tiles_a_packing_without_overlaps(dim):
     """The copies of a packing whose pairs touch through the periodic faces: no overlap, the same
-    packing fraction, every particle inside the new box, copy k shifted by whole base boxes."""
+    packing fraction, every particle inside the new box, each copy shifted as the docstring says."""
     base = maxwell_boltzmann(random_packing(300, 0.5, dim=dim, seed=4, radius={"kind": "uniform", "min": 0.4, "max": 0.6}), 1.0, seed=5, spin=True)
     counts = [3, 1, 2][:dim]
     s = replicate(base, counts)

@@ -145,7 +145,7 @@ def test_default_fields_take_no_memory_and_stay_read_only(dim):
     assert not any(c.angular_velocity.strides) and not c.has_pending
     c.image = np.ones((2, dim), np.int64)
     assert c.unwrapped_position[0, 0] == 10.0 and s.image[0, 0] == 0
-    assert s.committed_velocity is s.velocity  # (nothing pending: no copy)
+    assert s._committed() is s.velocity and s.committed_velocity is not s.velocity  # (inside: no copy; outside: a new array)
 
 
 def test_a_filled_field_is_checked(dim):
@@ -161,3 +161,14 @@ def test_check_names_a_non_finite_velocity_of_a_trusted_state(dim):
     t = State.trusted(**{**{k: getattr(s, k) for k in ("position", "radius", "mass", "box", "time", "angular_velocity", "inertia", "image", "periodic", "last_collision")}, "velocity": v})
     with pytest.raises(StateError, match=r"velocity is not finite \(NaN or inf\) at particle 1"):
         t.check()
+
+
+def test_check_names_a_nan_spin_of_a_trusted_state(dim):
+    s = two(dim)
+    w = np.zeros((2, 3) if dim == 3 else 2)
+    w[0] = np.nan
+    fields = {k: getattr(s, k) for k in ("position", "velocity", "radius", "mass", "box", "time", "inertia", "image", "periodic", "last_collision")}
+    with pytest.raises(StateError, match="angular_velocity is not finite .* at particle 0"):
+        State.trusted(**fields, angular_velocity=w).check()
+    with pytest.raises(StateError, match="last_collision of particle 1 is inf"):
+        State.trusted(**{**fields, "last_collision": np.array([0.0, np.inf])}, angular_velocity=np.zeros_like(w)).check()

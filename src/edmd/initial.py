@@ -317,7 +317,7 @@ def replicate(state: State, counts: Sequence[int]) -> State:
     shift = np.stack(np.meshgrid(*[np.arange(c) - 0.5 * (c - 1) for c in counts], indexing="ij"), axis=-1)
     shift = shift.transpose(*reversed(range(state.dim)), state.dim).reshape(copies, state.dim) * state.box
     pos = (state.position[None, :, :] + shift[:, None, :]).reshape(-1, state.dim)
-    pos -= box * np.floor(pos / box + 0.5)  # (round-off at a face: back into [-L/2, L/2))
+    pos -= box * np.floor(pos / box + 0.5)  # (a copy that round-off put past a face comes back in, within an ulp)
 
     def tiled(a):
         return np.tile(a, (copies,) + (1,) * (a.ndim - 1))
@@ -330,10 +330,10 @@ def replicate(state: State, counts: Sequence[int]) -> State:
         mass=tiled(state.mass),
         box=box,
         time=state.time,
-        angular_velocity=None if not any(spins.strides) and not spins.flat[0] else tiled(spins),
+        angular_velocity=tiled(spins) if np.any(spins) else None,
         inertia=tiled(state.inertia),
         periodic=state.periodic,
-        last_collision=None if not np.isfinite(state.last_collision).any() else tiled(state.last_collision),
+        last_collision=tiled(state.last_collision) if np.any(state.last_collision != -np.inf) else None,
     )
 
 

@@ -239,13 +239,21 @@ class State:
 
     # ------------------------------------------------------------------ checks
     def check(self):
-        """Raise :class:`StateError` naming the first problem of a :meth:`trusted` state: a position
-        or velocity that is not finite, a radius, mass or moment of inertia that is not positive,
-        a particle outside the box (the checks of a new State but the overlaps)."""
-        for name in ("position", "velocity"):
-            bad = np.flatnonzero(~np.isfinite(getattr(self, name)).all(axis=1))
+        """Raise :class:`StateError` naming the first problem of a :meth:`trusted` state: a position,
+        velocity, spin or pending increment that is not finite, a NaN time (or a last collision at
+        ``+inf``), a
+        radius, mass or moment of inertia that is not positive, a particle outside the box (the
+        checks of a new State but the overlaps)."""
+        for name in ("position", "velocity", "angular_velocity", "pending_velocity"):
+            values = getattr(self, name)
+            bad = np.flatnonzero(~np.isfinite(values).reshape(self.n, -1).all(axis=1))
             if bad.size:
-                raise StateError(f"{name} is not finite (NaN or inf) at particle {int(bad[0])}: {getattr(self, name)[bad[0]].tolist()}")
+                raise StateError(f"{name} is not finite (NaN or inf) at particle {int(bad[0])}: {values[bad[0]].tolist()}")
+        for name, forbidden in (("last_collision", np.inf), ("pending_until", np.nan)):
+            values = getattr(self, name)
+            bad = np.flatnonzero(np.isnan(values) | (values == forbidden))
+            if bad.size:
+                raise StateError(f"{name} of particle {int(bad[0])} is {float(values[bad[0]])!r}")
         self._check_values()
 
     def _check_values(self):
@@ -369,12 +377,17 @@ class State:
 
     @property
     def committed_velocity(self) -> np.ndarray:
-        r"""Velocities with pending eMD* increments applied, :math:`\mathbf v_i + \boldsymbol\Delta_i` (physics.md §4.8)."""
+        r"""Velocities with pending eMD* increments applied, :math:`\mathbf v_i + \boldsymbol\Delta_i` (physics.md §4.8): a new array."""
+        v = self._committed()
+        return v.copy() if v is self.velocity else v
+
+    def _committed(self) -> np.ndarray:
+        """:attr:`committed_velocity`, or ``velocity`` itself when nothing is pending (no copy: for reading)."""
         return self.velocity if _is_filled(self.pending_velocity) and not self.pending_velocity.flat[0] else self.velocity + self.pending_velocity
 
     def kinetic_energy(self) -> float:
         """Translational kinetic energy (of the committed velocities)."""
-        return 0.5 * float(np.sum(self.mass[:, None] * self.committed_velocity**2))
+        return 0.5 * float(np.sum(self.mass[:, None] * self._committed() ** 2))
 
     def rotational_energy(self) -> float:
         """Rotational kinetic energy."""
@@ -394,12 +407,12 @@ class State:
 
     def momentum(self) -> np.ndarray:
         """Total linear momentum (of the committed velocities)."""
-        return (self.mass[:, None] * self.committed_velocity).sum(axis=0)
+        return (self.mass[:, None] * self._committed()).sum(axis=0)
 
     def temperature(self) -> float:
         r"""Translational granular temperature :math:`T = \frac{1}{dN}\sum_i m_i|\mathbf v_i-\mathbf u|^2` (:math:`k_B=1`)."""
         u = self.momentum() / self.mass.sum()
-        return float(np.sum(self.mass[:, None] * (self.committed_velocity - u) ** 2) / (self.dim * self.n))
+        return float(np.sum(self.mass[:, None] * (self._committed() - u) ** 2) / (self.dim * self.n))
 
     def copy(self) -> State:
         """Deep copy."""

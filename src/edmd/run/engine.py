@@ -356,10 +356,14 @@ class Engine:
         if self.growth is not None:
             self._start_segment()
             self._choose_neighbours(state)  # (the radii have grown: cells of the list grid, skin, capacity)
-        for bundle in ("part", "ev", "q", "grid", "lists", "emd", "drive", "pairs"):
-            setattr(self, bundle, None)  # (a resync's old arrays go before the new ones are made)
         n = self.n
         order = self._spatial_order(state)
+        pending = self._pending_arrays(state, order)
+        captures = 0 if self.well is None else self.well.capacity(state.radius, self.dim)
+        if self.well is not None and state.captured_pairs is not None:
+            self._check_capture_counts(state, captures)
+        for bundle in ("part", "ev", "q", "grid", "lists", "emd", "drive", "pairs"):
+            setattr(self, bundle, None)  # (a resync's old arrays go before the new ones are made; nothing below refuses the state)
         self.tag = order.astype(np.int32)
         P = np.zeros((n, L.ROW))
         for k in range(self.dim):  # (a column at a time: no temporary copy of every position)
@@ -370,9 +374,9 @@ class Engine:
         for k in range(self.dim):
             image[:, k] = state.image[order, k]
         self.part = Particles(P, state.mass[order], *self._spins(state, order), image, np.zeros(n, np.int32), self._tc_times(state, order))
-        self.emd = emd_bundle(n if self.emd_rule is not None else 0, self.emd_rule, self._pending_arrays(state, order))
+        self.emd = emd_bundle(n if self.emd_rule is not None else 0, self.emd_rule, pending)
         self.ev = new_events(n)
-        self.pairs = new_pairs(n, 0 if self.well is None else self.well.capacity(state.radius, self.dim))
+        self.pairs = new_pairs(n, captures)
         self._derive_captures = self.well is not None and state.captured_pairs is None
         if self.well is not None and not self._derive_captures:
             self._load_captured(state, order)
@@ -388,7 +392,8 @@ class Engine:
         moments of inertia; a state with other spins or moments keeps them."""
         rough = self.ip[L.IP_TANGENT] != L.TANGENT_SMOOTH or self.ip[L.IP_WALL_TANGENT] != L.TANGENT_SMOOTH
         w = state.angular_velocity
-        if not rough and not np.any(w) and np.array_equal(state.inertia, default_inertia(state.mass, state.radius, self.dim)):
+        default = self.growth is None and np.array_equal(state.inertia, default_inertia(state.mass, state.radius, self.dim))
+        if not rough and not np.any(w) and default:  # (growing radii keep the moments they were loaded with)
             return np.zeros((0, 3)), np.zeros(0)
         omega = np.zeros((self.n, 3))
         if self.dim == 3:
@@ -438,19 +443,21 @@ class Engine:
         pj = np.where(partner >= 0, inv[np.maximum(partner, 0)], -1).astype(np.int32)
         return dv, state.pending_until[order] - self.t_origin, pj
 
-    def _load_captured(self, state: State, order: np.ndarray):
-        """The capture map of ``state`` (user order) in internal order."""
-        pairs = state.captured_pairs
-        inv = np.empty(self.n, np.int64)
-        inv[order] = np.arange(self.n)
-        counts = np.bincount(pairs.ravel(), minlength=self.n)
-        if counts.size and counts.max() > self.pairs.captured.shape[1]:
+    def _check_capture_counts(self, state: State, capacity: int):
+        """Refuse a capture map with more partners per particle than hard cores fit in a well."""
+        counts = np.bincount(state.captured_pairs.ravel(), minlength=self.n)
+        if counts.size and counts.max() > capacity:
             worst = int(np.argmax(counts))
             raise StateError(
                 f"particle {worst} is captured by {int(counts[worst])} partners, more than hard cores can fit "
-                f"inside its square well ({self.pairs.captured.shape[1]}): the captured pairs do not belong to this state"
+                f"inside its square well ({capacity}): the captured pairs do not belong to this state"
             )
-        load_captured(self.pairs, inv[pairs])
+
+    def _load_captured(self, state: State, order: np.ndarray):
+        """The capture map of ``state`` (user order, checked by :meth:`_check_capture_counts`) in internal order."""
+        inv = np.empty(self.n, np.int64)
+        inv[order] = np.arange(self.n)
+        load_captured(self.pairs, inv[state.captured_pairs])
 
     def _check_captured(self, state: State):
         """A capture map from outside must be the state's geometry: the pairs inside the edge, up to
@@ -531,7 +538,7 @@ class Engine:
         committed = self.part.rows[:, L.VX : L.VZ + 1]  # particles are all at local time 0
         if self.emd_rule is not None:
             committed = committed + self.emd.pending_dv
-        self.acc[L.A_KE] = 0.5 * float(np.einsum("i,ij,ij->", self.part.mass, committed, committed))
+        self.acc[L.A_KE] = 0.5 * float(self.part.mass @ np.einsum("ij,ij->i", committed, committed))
         self.acc[L.A_PX : L.A_PZ + 1] = np.einsum("i,ij->j", self.part.mass, committed)
         self.events_at_sync = int(self.cnt[L.C_EVENTS])
 
