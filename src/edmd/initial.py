@@ -303,7 +303,7 @@ def replicate(state: State, counts: Sequence[int]) -> State:
     """
     counts = np.asarray(counts)
     if counts.shape != (state.dim,) or not np.issubdtype(counts.dtype, np.integer) or np.any(counts < 1):
-        raise StateError(f"replicate needs {state.dim} whole numbers >= 1 (copies per axis), got {np.asarray(counts).tolist()}")
+        raise StateError(f"replicate needs {state.dim} whole numbers >= 1 (copies per axis), got {counts.tolist()}")
     walled = np.flatnonzero((counts > 1) & ~state.periodic)
     if walled.size:
         raise StateError(f"replicate: axis {'xyz'[walled[0]]} is closed by walls; only periodic axes can be tiled")

@@ -54,12 +54,12 @@ def _is_filled(arr) -> bool:
     return isinstance(arr, np.ndarray) and arr.size > 0 and not any(arr.strides)
 
 
-def _field(name, value, default, shape, dtype=np.float64):
+def _field(name, value, default, shape):
     """A float field: ``default`` everywhere (:func:`filled`) when ``value`` is ``None``, a
     :func:`filled` constant kept (its one value checked), anything else a checked copy."""
     if value is None:
-        return filled(default, shape, dtype)
-    if _is_filled(value) and value.shape == shape and value.dtype == dtype:
+        return filled(default, shape)
+    if _is_filled(value) and value.shape == shape and value.dtype == np.float64:
         _as_float(name, value.flat[:1], (1,))
         return value
     return _as_float(name, value, shape)

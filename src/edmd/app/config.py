@@ -423,9 +423,9 @@ class Config(_Section):
             raise ValueError("walls.axes: a 2D system has no z axis")
         if self.walls.viscoelastic and self.collision.young is None:
             raise ValueError("walls.viscoelastic needs a viscoelastic material in [collision] (young, poisson, A)")
-        tiled = [axis for axis, c in zip("xyz", self.system.replicate or []) if c > 1]
-        if any(axis in self.walls.axes for axis in tiled):
-            raise ValueError(f"system.replicate tiles the periodic axes only; walls close {[a for a in tiled if a in self.walls.axes][0]!r}")
+        walled = [axis for axis, c in zip("xyz", self.system.replicate or []) if c > 1 and axis in self.walls.axes]
+        if walled:
+            raise ValueError(f"system.replicate tiles the periodic axes only; walls close {walled[0]!r}")
         if self.vibration is not None and self.vibration.axis not in self.walls.axes:
             raise ValueError(f"vibration.axis = {self.vibration.axis!r} must be one of walls.axes (the vibrating wall is one of its walls)")
         return self

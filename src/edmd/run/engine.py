@@ -392,8 +392,8 @@ class Engine:
         moments of inertia; a state with other spins or moments keeps them."""
         rough = self.ip[L.IP_TANGENT] != L.TANGENT_SMOOTH or self.ip[L.IP_WALL_TANGENT] != L.TANGENT_SMOOTH
         w = state.angular_velocity
-        default = self.growth is None and np.array_equal(state.inertia, default_inertia(state.mass, state.radius, self.dim))
-        if not rough and not np.any(w) and default:  # (growing radii keep the moments they were loaded with)
+        if not rough and not np.any(w) and self.growth is None and np.array_equal(state.inertia, default_inertia(state.mass, state.radius, self.dim)):
+            # (growing radii keep the moments they were loaded with)
             return np.zeros((0, 3)), np.zeros(0)
         omega = np.zeros((self.n, 3))
         if self.dim == 3:
