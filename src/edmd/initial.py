@@ -334,6 +334,7 @@ def replicate(state: State, counts: Sequence[int]) -> State:
         inertia=tiled(state.inertia),
         periodic=state.periodic,
         last_collision=tiled(state.last_collision) if np.any(state.last_collision != -np.inf) else None,
+        riding=tiled(state.riding) if np.any(state.riding) else None,
     )
 
 

@@ -102,12 +102,14 @@ class State:
             where no contact is pending; physics.md §4.8).
         pending_until: ``(N,)`` time of each particle's pending eMD* B event (``inf``: none).
         pending_partner: ``(N,)`` partner of the pending contact (``-1``: none).
+        riding: ``(N,)`` whether each particle rides on the vibrating wall (the sticking
+            solution, :class:`edmd.VibratingWall`; ``False`` by default).
         captured_pairs: ``(M, 2)`` pairs inside each other's square well (:class:`edmd.SquareWell`),
             each pair once as ``(i, j)``, ``i < j``, sorted; ``None``: not recorded (a square-well
             run then captures the pairs closer than the well's edge).
 
-    Fields left at their default (``angular_velocity``, ``image``, ``last_collision`` and the
-    pending contacts) are read-only constants that take no memory (:func:`filled`): give a new
+    Fields left at their default (``angular_velocity``, ``image``, ``last_collision``, ``riding`` and
+    the pending contacts) are read-only constants that take no memory (:func:`filled`): give a new
     array (``state.image = ...``) rather than writing into them.
 
     While eMD* contacts are pending, ``velocity`` is the actual flight velocity (the pair's
@@ -137,6 +139,7 @@ class State:
     pending_until: np.ndarray | None = None
     pending_partner: np.ndarray | None = None
     captured_pairs: np.ndarray | None = None
+    riding: np.ndarray | None = None
     check_overlaps: dataclasses.InitVar[bool] = True
 
     def __post_init__(self, check_overlaps: bool = True):
@@ -171,6 +174,10 @@ class State:
         if last.shape != (n,) or np.any(np.isnan(last)) or np.any(last == np.inf):
             raise StateError(f"last_collision must be {n} times (or -inf), got shape {last.shape}")
         self.last_collision = last
+        riding = filled(False, (n,), bool) if self.riding is None else self.riding if _is_filled(self.riding) else np.array(self.riding)
+        if riding.shape != (n,) or not (riding.dtype == bool or np.all((riding == 0) | (riding == 1))):
+            raise StateError(f"riding must be {n} booleans, got {riding.dtype} {riding.shape}")
+        self.riding = riding if riding.dtype == bool else riding.astype(bool)
         self._set_pending(n, d)
         self._set_captured(n)
         self._check_values()

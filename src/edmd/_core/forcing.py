@@ -29,6 +29,7 @@ import numpy as np
 from . import layout as L
 from .jit import jit, leaf
 from .predict import advance
+from .wallmotion import release
 from .rng import normal_pair, stream
 
 #: the fourth part of the key of the kicks (bath draws use event counters and 2**40)
@@ -69,6 +70,7 @@ def white_noise_kick(t, P, mass, count, drive, fp, acc, cnt, geo):
     de = 0.0
     for p in range(n):
         advance(P, p, t, geo)
+        release(P, p, mass, acc, geo)  # (a rider on the vibrating wall flies on with its kick)
         g = _kick_normals(seed, tick, p)  # drawn again: a pure function of the key
         for k in range(3):
             if drive.axes[0, k]:

@@ -8,6 +8,9 @@ plane, so one compiled loop serves both dimensions (2D angular velocity is ``ome
 
 X, Y, Z, VX, VY, VZ, T, R = 0, 1, 2, 3, 4, 5, 6, 7
 ROW = 8
+#: runs with a vibrating wall have one more column: 1.0 while the particle rides on the wall
+#: (the sticking solution, wallmotion.py), else 0.0
+RIDE = 8
 
 # auxiliary (single-particle) event kinds; pair events are stored separately.
 AUX_NONE = 0
@@ -17,6 +20,7 @@ AUX_WALL = 8  # hard wall: AUX_WALL + 2 * axis + (0 lower wall, 1 upper wall)
 AUX_WALL_END = AUX_WALL + 6
 AUX_B = 64  # eMD* type-B event (the particle takes its post-collisional velocity)
 AUX_BATH = 65  # Andersen heat bath: the particle's velocity is drawn anew (see bath.py)
+AUX_RIDE = 66  # a particle riding on the vibrating wall takes off (wallmotion.py)
 # Dispatch is explicit: every kind the loop knows is tested for, and any other code stops the
 # run with ST_BAD_EVENT (a new kind must be given its own branch, it can never fall into another's).
 
@@ -109,6 +113,7 @@ ACCUMULATORS = (
     "energy_input",  # mechanical energy put in by updaters (thermostats, forcing) since the start
     "segment_virial",  # growing radii: the virial and the kinetic-energy integral at the start of the current segment
     "segment_kinetic_integral",
+    "ride_mass",  # total mass of the particles riding on the vibrating wall (set at each load)
 )
 (
     A_VIRIAL, A_DISSIPATED, A_KE, A_KE_INT, A_LAST_T, A_PX, A_PY, A_PZ, A_NOW, A_BAD, A_EMD_VN, A_EMD_VT,
@@ -116,6 +121,7 @@ ACCUMULATORS = (
 A_WALL = 12  # A_WALL + 2 * axis + face: normal momentum given to each wall (face 0 lower, 1 upper)
 A_ENERGY_INPUT = ACCUMULATORS.index("energy_input")
 A_SEG_VIRIAL, A_SEG_KE_INT = ACCUMULATORS.index("segment_virial"), ACCUMULATORS.index("segment_kinetic_integral")
+A_RIDE_MASS = ACCUMULATORS.index("ride_mass")
 N_ACC = len(ACCUMULATORS)
 
 #: integer parameters (``ip`` array)
@@ -220,11 +226,12 @@ def pack_laws(laws, fp, ip, wall=False):
 # geometry scalars passed to the compiled core as one tuple of floats (no array references
 # travel into hot helpers): box lengths, minimum-image half lengths (inf on open axes),
 # gravity, a gravity flag and, only with a vibrating wall (walls.py), its axis, face (0 lower,
-# 1 upper), waveform (WAVE_*), amplitude, angular frequency and phase at local time 0. (A tuple
+# 1 upper), waveform (WAVE_*), amplitude, angular frequency, phase at local time 0 and the
+# rebound speed below which a particle pressed by it sticks (0: never; wallmotion.py). (A tuple
 # of 16 floats in every run made cell-mode gases 1.8x slower, measured: the geometry of a run
 # without a vibrating wall keeps its 10 entries, and walls.wall_params reads the wall's by type.)
 G_LX, G_LY, G_LZ, G_HX, G_HY, G_HZ, G_GX, G_GY, G_GZ, G_ON = range(10)
-G_WALL_AXIS, G_WALL_FACE, G_WALL_WAVE, G_WALL_A, G_WALL_OMEGA, G_WALL_PHASE = range(10, 16)
+G_WALL_AXIS, G_WALL_FACE, G_WALL_WAVE, G_WALL_A, G_WALL_OMEGA, G_WALL_PHASE, G_WALL_STICK = range(10, 17)
 
 # waveforms of a vibrating wall (walls.py)
 WAVE_SINE, WAVE_TRIANGLE, WAVE_SAWTOOTH = 0, 1, 2
@@ -234,7 +241,7 @@ NO_MOVING_WALL = (-1.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 
 def make_geo(box, half, grav=None, wall=None):
     """The ``geo`` tuple from 3-component box and half-length arrays, optional gravity and the
-    vibrating wall's ``(axis, face, wave, amplitude, omega, phase at local time 0)``."""
+    vibrating wall's ``(axis, face, wave, amplitude, omega, phase at local time 0, stick speed)``."""
     g = [0.0, 0.0, 0.0] if grav is None else [float(x) for x in grav[:3]]
     on = float(any(x != 0.0 for x in g))
     geo = (*(float(x) for x in box), *(float(x) for x in half), *g, on)

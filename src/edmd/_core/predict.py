@@ -10,6 +10,7 @@ import numpy as np
 from .jit import leaf
 
 from .layout import G_GX, G_GY, G_GZ, G_HX, G_HY, G_HZ, G_LX, G_LY, G_LZ, G_ON, R, T, VX, VY, VZ, X, Y, Z
+from .wallmotion import rider_axis, rides
 
 INF = np.inf
 
@@ -77,7 +78,8 @@ def wrap3(dx, dy, dz, geo):
 
 @leaf
 def flight(P, i, t, geo):
-    """Position and velocity of particle ``i`` at time ``t`` (physics.md §1.1, free flight)."""
+    """Position and velocity of particle ``i`` at time ``t`` (physics.md §1.1, free flight; a
+    particle riding on the vibrating wall moves with the wall along its axis, §1.6.3)."""
     dt = t - P[i, T]
     vx, vy, vz = P[i, VX], P[i, VY], P[i, VZ]
     x = P[i, X] + vx * dt
@@ -91,6 +93,14 @@ def flight(P, i, t, geo):
         vx += geo[G_GX] * dt
         vy += geo[G_GY] * dt
         vz += geo[G_GZ] * dt
+    if rides(P, i, geo):
+        k, xk, vk = rider_axis(t, P[i, R], geo)
+        if k == 0:
+            x, vx = xk, vk
+        elif k == 1:
+            y, vy = xk, vk
+        else:
+            z, vz = xk, vk
     return x, y, z, vx, vy, vz
 
 

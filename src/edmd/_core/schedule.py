@@ -19,10 +19,11 @@ from . import layout as L
 from .cells import cell_insert, cell_remove, count_work, crossing_time, walk_cells, walk_next
 from .jit import hot, jit
 from .layout import NB_LIST
-from .nblist import shell_exit_time
-from .predict import INF, box_shift, contact_time, flight, gap_time, relative_to
+from .nblist import SQRT3, shell_exit_time
+from .predict import INF, box_shift, contact_time, flight, gap_time, relative_to, wrap3
 from .queue import queue_update
-from .walls import is_moving, moving_wall_time
+from .wallmotion import has_wall, is_moving, level_time, ride_axis, ride_end, rides
+from .walls import moving_wall_time, ride_contact_time
 from .growth import closer_grow
 from .wells import closer_well, well_reach
 
@@ -35,10 +36,19 @@ def set_pair(ev, count, i, t, j):
 
 
 @hot
-def _closer(xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, best, bj):
-    """The earlier of the current best ``(dt, partner)`` and a contact with ``j``."""
-    dx, dy, dz, gx, gy, gz = relative_to(xi, yi, zi, vxi, vyi, vzi, P, j, t, geo)
-    dt = contact_time(dx, dy, dz, gx, gy, gz, ri + P[j, L.R])
+def _closer(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, best, bj):
+    """The earlier of the current best ``(dt, partner)`` and a contact of ``i`` (at ``x_i`` with
+    ``v_i``, radius ``ri``) with ``j``; a pair of which one rides on the vibrating wall is
+    searched by :func:`.walls.ride_contact_time` (two riders move alike along the wall's axis)."""
+    if has_wall(geo) and rides(P, i, geo) != rides(P, j, geo):
+        if rides(P, j, geo):
+            dt = ride_contact_time(xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo)
+        else:
+            xj, yj, zj, vxj, vyj, vzj = flight(P, j, t, geo)
+            dt = ride_contact_time(xj, yj, zj, vxj, vyj, vzj, P[j, L.R], P, i, t, geo)
+    else:
+        dx, dy, dz, gx, gy, gz = relative_to(xi, yi, zi, vxi, vyi, vzi, P, j, t, geo)
+        dt = contact_time(dx, dy, dz, gx, gy, gz, ri + P[j, L.R])
     if dt < best:
         return dt, j
     return best, bj
@@ -55,7 +65,7 @@ def scan_cells(i, t, P, count, ev, grid, geo, cbuf, axis, step):
     tested = 0
     while j >= 0:
         if j != i:
-            best, bj = _closer(xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, best, bj)
+            best, bj = _closer(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, best, bj)
             tested += 1
         nc, s, j = walk_next(grid, cbuf, nc, s, j)
     count_work(grid, nc, tested)
@@ -85,7 +95,7 @@ def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, 
             elif well:
                 best, bj, bk = closer_well(xi, yi, zi, vxi, vyi, vzi, ri, P, pairs, i, nbl[i, s], t, geo, reach, best, bj, bk)
             else:
-                best, bj = _closer(xi, yi, zi, vxi, vyi, vzi, ri, P, nbl[i, s], t, geo, best, bj)
+                best, bj = _closer(i, xi, yi, zi, vxi, vyi, vzi, ri, P, nbl[i, s], t, geo, best, bj)
         if bj >= 0:
             set_pair(ev, count, i, t + best, bj)
             if well:
@@ -147,7 +157,11 @@ def predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, s
     (when ``walls``; ``wall_axes`` has bit ``k`` set for axis ``k``; with ``grow``, radii growing at
     the local ``rate``), its eMD* B event (``ptb``, when ``emd_on``) or its Andersen bath event
     (``bath_t``, when ``bath_on``)."""
-    if mode == NB_LIST:
+    riding = rides(P, i, geo)
+    if riding:
+        ride_events(i, t, P, ev, grid, lists, geo, mode, skin)
+        wall_axes = wall_axes & ~(1 << ride_axis(geo)[0])  # (it cannot reach the opposite wall)
+    elif mode == NB_LIST:
         ev.aux_t[i] = shell_exit_time(P, i, t, lists, geo, skin)
         ev.aux_k[i] = L.AUX_SHELL
     else:
@@ -162,6 +176,49 @@ def predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, s
     if bath_on and bath_t[i] < ev.aux_t[i]:
         ev.aux_t[i] = bath_t[i]
         ev.aux_k[i] = L.AUX_BATH
+
+
+@jit
+def ride_events(i, t, P, ev, grid, lists, geo, mode, skin):
+    """The earliest of the single-particle events of ``i`` riding on the vibrating wall but its
+    walls: the take-off (:func:`.wallmotion.ride_end`) and its shell exit or cell crossing
+    (physics.md §1.6.3). Along the wall's axis the rider moves with the wall, so it reaches a
+    plane when the wall's displacement reaches a level (:func:`.wallmotion.level_time`); across
+    it, in free flight (the shell: its inscribed cube, as with gravity)."""
+    k, sign, _gn = ride_axis(geo)
+    xs = flight(P, i, t, geo)
+    base = -sign * 0.5 * geo[k] + sign * P[i, L.R]  # the rider's coordinate is base + sign * d
+    best, kind = ride_end(t, geo) - t, L.AUX_RIDE
+    if mode == NB_LIST:
+        centre = lists.centre
+        h = 0.5 * skin / SQRT3
+        dd = wrap3(xs[0] - centre[i, 0], xs[1] - centre[i, 1], xs[2] - centre[i, 2], geo)
+        for m in range(3):
+            if m == k:
+                tm = min(level_time(sign * (centre[i, m] + h - base), t, geo), level_time(sign * (centre[i, m] - h - base), t, geo))
+            else:
+                tm = min(gap_time(h - dd[m], -xs[3 + m], -geo[L.G_GX + m]), gap_time(h + dd[m], xs[3 + m], geo[L.G_GX + m]))
+            if tm < best:
+                best, kind = tm, L.AUX_SHELL
+    else:
+        gi, gf = grid.shape, grid.size
+        c = grid.cell[i]
+        coords = (c // (gi[1] * gi[2]), (c // gi[2]) % gi[1], c % gi[2])
+        for m in range(3):
+            if m == k:
+                lo = -0.5 * geo[m] + coords[m] * gf[m]
+                for face in range(2):
+                    inner = coords[m] < gi[m] - 1 if face == 1 else coords[m] > 0
+                    if gi[m] > 1 and inner:
+                        tm = level_time(sign * (lo + face * gf[m] - base), t, geo)
+                        if tm < best:
+                            best, kind = tm, L.AUX_CELL + 2 * m + face
+            else:
+                tm, face = crossing_time(xs[m], xs[3 + m], geo[L.G_GX + m], coords[m], gi[m], geo[m], gf[m], geo[3 + m] < INF)
+                if tm < best:
+                    best, kind = tm, L.AUX_CELL + 2 * m + face
+    ev.aux_t[i] = t + best
+    ev.aux_k[i] = kind
 
 
 @hot

@@ -38,107 +38,10 @@ and the work done by the wall, :math:`W = u\,J_n`, is booked as energy input.
 
 import math
 
-from numba import types
-from numba.extending import overload
-
 from .jit import jit, leaf
-from .layout import G_WALL_A, G_WALL_AXIS, G_WALL_FACE, G_WALL_OMEGA, G_WALL_PHASE, G_WALL_WAVE, NO_MOVING_WALL, WAVE_SINE, WAVE_TRIANGLE
-from .predict import INF, gap_time
-
-TWO_PI = 2.0 * math.pi
-
-
-def wall_params(geo):
-    """The vibrating wall's ``(axis, face, wave, amplitude, omega, phase at local time 0)`` of a
-    geometry (:func:`.layout.make_geo`); ``NO_MOVING_WALL`` when it has none.
-
-    Compiled code reads them by the tuple's length at typing time (:func:`_wall_params`): the
-    wall code of a run without a vibrating wall folds to nothing.
-
-    Example:
-        >>> wall_params((1.0,) * 10)
-        (-1.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    """
-    return tuple(geo[G_WALL_AXIS : G_WALL_PHASE + 1]) if len(geo) > G_WALL_AXIS else NO_MOVING_WALL
-
-
-@overload(wall_params, inline="always")
-def _wall_params(geo):
-    if isinstance(geo, types.BaseTuple) and len(geo) > G_WALL_AXIS:
-        return lambda geo: (geo[G_WALL_AXIS], geo[G_WALL_FACE], geo[G_WALL_WAVE], geo[G_WALL_A], geo[G_WALL_OMEGA], geo[G_WALL_PHASE])
-    return lambda geo: (-1.0, 0.0, 0.0, 0.0, 0.0, 0.0)  # NO_MOVING_WALL
-
-
-@leaf
-def wave_value(wave, theta):
-    r"""The waveform :math:`w(\theta)` and :math:`dw/d\theta` (see the module doc).
-
-    Example:
-        >>> from edmd._core.layout import WAVE_TRIANGLE
-        >>> w, dw = wave_value(WAVE_TRIANGLE, 0.5 * math.pi)   # the triangle's peak
-        >>> round(w, 12), round(dw * math.pi, 12)
-        (1.0, -2.0)
-    """
-    if wave == WAVE_SINE:
-        return math.sin(theta), math.cos(theta)
-    return _linear_wave(wave, _cycle(wave, theta))
-
-
-@leaf
-def _cycle(wave, theta):
-    """Where a triangle or sawtooth wave is in its cycle: the fraction ``q`` in ``[0, 1)``, counted
-    from the start of its rising piece (where ``w = -1``)."""
-    q = theta / TWO_PI + (0.25 if wave == WAVE_TRIANGLE else 0.5)
-    return q - math.floor(q)
-
-
-@leaf
-def _linear_wave(wave, q):
-    """``w`` and ``dw/dtheta`` of a triangle or sawtooth wave at cycle fraction ``q`` (:func:`_cycle`)."""
-    if wave == WAVE_TRIANGLE:
-        if q < 0.5:
-            return -1.0 + 4.0 * q, 4.0 / TWO_PI
-        return 3.0 - 4.0 * q, -4.0 / TWO_PI
-    return -1.0 + 2.0 * q, 2.0 / TWO_PI
-
-
-@leaf
-def wall_shift(t, geo):
-    """Displacement of the vibrating wall into the box and its rate at local time ``t``."""
-    _k, _face, wave, a, om, phase = wall_params(geo)
-    w, dw = wave_value(int(wave), phase + om * t)
-    return a * (1.0 + w), a * om * dw
-
-
-@leaf
-def is_moving(k, face, geo):
-    """Whether wall ``face`` (0 lower, 1 upper) of axis ``k`` is the vibrating wall."""
-    p = wall_params(geo)
-    return p[0] == k and p[1] == face
-
-
-@leaf
-def wall_velocity(k, face, t, geo):
-    """Lab-frame velocity along axis ``k`` of wall ``face`` at local time ``t`` (0 for a fixed wall)."""
-    if not is_moving(k, face, geo):
-        return 0.0
-    _d, u = wall_shift(t, geo)
-    return u if face == 0 else -u
-
-
-@leaf
-def wall_planes(k, t, geo):
-    """Positions of the lower and upper wall of axis ``k`` at local time ``t``."""
-    half = 0.5 * geo[k]
-    lo, hi = -half, half
-    p = wall_params(geo)
-    if p[0] == k:
-        d, _u = wall_shift(t, geo)
-        if p[1] == 0:
-            lo += d
-        else:
-            hi -= d
-    return lo, hi
+from .layout import G_GX, R, WAVE_SINE, WAVE_TRIANGLE
+from .predict import INF, flight, gap_time, wrap3
+from .wallmotion import TWO_PI, _cycle, _linear_wave, ride_axis, ride_end, rider_axis, wall_params
 
 
 @leaf
@@ -276,3 +179,93 @@ def moving_wall_time(h, v, g, t, geo, horizon):
         if root < INF:
             return root
         s = end
+
+
+#: steps of :func:`ride_contact_time`'s search before it gives up (never reached in the tests)
+MAX_RIDE_STEPS = 100000
+
+
+@jit
+def ride_contact_time(xf, yf, zf, vxf, vyf, vzf, rf, P, q, t, geo):
+    r"""Time until a free particle (radius ``rf``, at ``x_f`` with ``v_f`` at local time ``t``)
+    touches particle ``q``, which rides on the vibrating wall (``INF``: not before ``q`` takes off).
+
+    Across the wall's axis the separation moves linearly (both feel the same gravity), along
+    it the rider follows the wall and the free particle its parabola:
+    :math:`f(s) = |\mathbf p_\perp + \mathbf w_\perp s|^2 + \Delta_k(s)^2 - \sigma^2`. The contact is
+    the first root of ``f`` with :math:`\dot f < 0`, searched between the roots of the
+    transverse part and the take-off (:func:`.wallmotion.ride_end`) by conservative
+    advancement (Bannerman et al.'s stable event detection): over a window where
+    :math:`|\ddot\Delta_k| \le Z_2 = a\omega^2 + |G_k|` and :math:`|\Delta_k| \le Z`,
+    :math:`\ddot f \ge 2|\mathbf w_\perp|^2 - 2 Z Z_2 =: -F`, so ``f`` stays positive for the step
+    to the positive root of :math:`f + \dot f s - F s^2/2`. The steps never pass a root and
+    converge on it like Newton's from the safe side.
+
+    Example:
+        >>> import numpy as np
+        >>> from edmd._core import layout as L
+        >>> geo = L.make_geo(np.full(3, 10.0), np.array([5.0, 5.0, np.inf]), np.array([0.0, 0.0, -1.0]), (2, 0, L.WAVE_SINE, 0.1, 1.0, 0.0, 1e-6))
+        >>> P = np.zeros((1, L.ROW + 1)); P[0, L.R] = 0.5; P[0, L.RIDE] = 1.0   # rides at z = -5 + 0.1 + 0.5
+        >>> s = ride_contact_time(0.0, 0.0, -3.4, 0.0, 0.0, 0.0, 0.5, P, 0, 0.0, geo)   # dropped from 2 above it
+        >>> bool(abs(s - 1.4) < 0.05)
+        True
+    """
+    xq, yq, zq, vxq, vyq, vzq = flight(P, q, t, geo)
+    dx, dy, dz = wrap3(xq - xf, yq - yf, zq - zf, geo)
+    d = (dx, dy, dz)
+    w = (vxq - vxf, vyq - vyf, vzq - vzf)
+    k, _sign, _gn = ride_axis(geo)
+    rq = P[q, R]
+    sigma = rq + rf
+    pp = pw = ww = 0.0
+    for m in range(3):
+        if m != k:
+            pp += d[m] * d[m]
+            pw += d[m] * w[m]
+            ww += w[m] * w[m]
+    lo, end = 0.0, ride_end(t, geo) - t
+    c = pp - sigma * sigma
+    if ww > 0.0:  # the transverse separation is within sigma between two roots
+        disc = pw * pw - ww * c
+        if disc <= 0.0:
+            return INF
+        root = math.sqrt(disc)
+        lo = max(lo, (-pw - root) / ww)
+        end = min(end, (-pw + root) / ww)
+    elif c > 0.0:
+        return INF
+    xk0, vk0, gk = (xf, yf, zf)[k], (vxf, vyf, vzf)[k], geo[G_GX + k]
+    _k, _face, wave, a, om, _phase = wall_params(geo)
+    z2 = abs(gk) + (a * om * om if int(wave) == WAVE_SINE else 0.0)
+    s = lo
+    window = sigma / (math.sqrt(ww) + abs(w[k]) + math.sqrt(sigma * z2) + 1e-300)
+    for _ in range(MAX_RIDE_STEPS):
+        if s >= end:
+            return INF
+        _k, xq_k, vq_k = rider_axis(t + s, rq, geo)
+        dk = xq_k - (xk0 + vk0 * s + 0.5 * gk * s * s)
+        dk1 = vq_k - (vk0 + gk * s)
+        f = pp + 2.0 * pw * s + ww * s * s + dk * dk - sigma * sigma
+        f1 = 2.0 * (pw + ww * s + dk * dk1)
+        h = min(end - s, window)
+        big = 2.0 * (abs(dk) + h * abs(dk1) + 0.5 * h * h * z2) * z2 - 2.0 * ww  # F
+        res = 2.3e-16 * (abs(t) + s) + 1e-300  # the resolution of the clock
+        if f <= 0.0:
+            if f1 < 0.0:
+                return s  # touching and approaching
+            step = max(f1 / big if big > 0.0 else h, 16.0 * res)  # f' >= 0 for this long: no closing root
+        else:
+            if big > 0.0:
+                root = math.sqrt(f1 * f1 + 2.0 * big * f)
+                step = 2.0 * f / (root - f1) if f1 < 0.0 else (f1 + root) / big
+            else:  # convex over the window: the tangent bounds f from below
+                step = f / -f1 if f1 < 0.0 else h
+            if step <= res:
+                return s + step  # converged on the root from the safe side
+        if step >= h:
+            step = h
+            window = 2.0 * h
+        else:
+            window = 4.0 * step
+        s += step
+    return s

@@ -386,9 +386,15 @@ class VibrationConfig(_Section):
     omega: float = Field(gt=0, allow_inf_nan=False, description="angular frequency")
     phase: float = Field(0.0, allow_inf_nan=False, description="phase at time 0 (radians)")
     wave: Literal["sine", "triangle", "sawtooth"] = Field("sine", description="waveform of the displacement")
+    stick_speed: float | None = Field(
+        None, ge=0, allow_inf_nan=False,
+        description="rebound speed below which a pressed particle rides on the wall (default 1e-6 amplitude omega; 0: never)",
+    )  # fmt: skip
 
     def build(self) -> VibratingWall:
-        return VibratingWall(amplitude=self.amplitude, omega=self.omega, phase=self.phase, axis=self.axis, side=self.side, wave=self.wave)
+        return VibratingWall(
+            amplitude=self.amplitude, omega=self.omega, phase=self.phase, axis=self.axis, side=self.side, wave=self.wave, stick_speed=self.stick_speed
+        )  # fmt: skip
 
 
 class WellConfig(_Section):
@@ -684,6 +690,7 @@ plots = true              # PNG figures at the end of the run (also: `edmd plot 
 # omega = 10.0
 # phase = 0.0
 # wave = "sine"
+# stick_speed = 0.0       #   a particle chattering to rest rides on the wall (default 1e-6 amplitude omega; 0: never)
 
 # [well]                  # square-well attraction between the hard cores (edmd integrator, neighbour lists)
 # width = 1.5             #   the edge at width * (R_i + R_j): pairs inside have energy -depth

@@ -90,6 +90,7 @@ def state_to_frame(state: State, totals: Totals | None = None, pending: bool | N
     f.log["particles/angular_velocity"] = np.asarray(state.angular_velocity, np.float64)
     f.log["particles/radius"] = state.radius.astype(np.float64)
     f.log["particles/last_collision"] = state.last_collision.astype(np.float64)  # in every frame (GSD defaults)
+    f.log["particles/riding"] = np.asarray(state.riding, np.uint8)
     if state.has_pending if pending is None else pending:
         f.log["particles/pending_velocity"] = np.asarray(state.pending_velocity, np.float64)
         f.log["particles/pending_until"] = np.asarray(state.pending_until, np.float64)
@@ -137,6 +138,7 @@ def frame_to_state(frame: gsd.hoomd.Frame, check_overlaps: bool = True) -> State
         spin = _spin_from_angmom(frame, inertia, d)
     periodic = log.get("configuration/periodic")
     last = log.get("particles/last_collision")
+    riding = log.get("particles/riding")
     time = float(log["time"][0]) if "time" in log else 0.0
     captured = log.get("state/captured_pairs")
     return State(
@@ -155,6 +157,7 @@ def frame_to_state(frame: gsd.hoomd.Frame, check_overlaps: bool = True) -> State
         pending_until=log.get("particles/pending_until"),
         pending_partner=log.get("particles/pending_partner"),
         captured_pairs=None if captured is None else np.asarray(captured, np.int64).reshape(-1, 2),
+        riding=None if riding is None else np.asarray(riding, bool),
         check_overlaps=check_overlaps,
     )
 

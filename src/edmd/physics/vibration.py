@@ -14,10 +14,14 @@ search that cannot skip a root, or closed form on the linear pieces), and collis
 wall's frame: restitution and roughness apply to the velocity relative to the wall, and the
 work the wall does, :math:`u J_n` per impact, is booked as ``energy_input``.
 
-Limitation: a particle that chatters to rest on the wall (complete chattering, the
-inelastic collapse of the bouncing ball) is not taken off again in closed form: its bounces
-pile up and the run stops with :class:`edmd.CollapseError`. The TC model (``tc``) keeps such
-runs going.
+A particle that chatters to rest on the wall (complete chattering, the inelastic collapse of
+the bouncing ball: bounces converging in finite time while the wall presses it) **rides** with
+the wall (physics.md §1.6.3): once its rebound from a pressing wall would be slower than
+``stick_speed``, it sticks, moves with the wall along the axis and freely across it, and takes
+off in closed form exactly when the wall stops pressing it (its acceleration falls below
+gravity's: :math:`\sin\theta = 1/\Gamma` for a sine floor; the end of a piece of the linear
+waves). A collision, a kick or the heat bath ends a ride at once. ``State.riding`` marks the
+riders, and checkpoints keep them.
 """
 
 from __future__ import annotations
@@ -28,9 +32,14 @@ import math
 import numpy as np
 
 from .._core import layout as L
-from .._core.walls import wave_value
+from .._core.wallmotion import wave_value
 
 WAVES = {"sine": L.WAVE_SINE, "triangle": L.WAVE_TRIANGLE, "sawtooth": L.WAVE_SAWTOOTH}
+#: the default ``stick_speed`` in units of the wall's speed scale :math:`a\omega`: a rebound this
+#: slow rises :math:`10^{-12}\,(a\omega)^2/(2 g_{\rm eff})` off the wall, near the resolution of
+#: positions, and the bounces it cuts short would all have ended within
+#: :math:`2\times10^{-6}\,a\omega/(g_{\rm eff}(1-e))`
+STICK = 1e-6
 AXES = "xyz"
 SIDES = ("lower", "upper")
 
@@ -46,6 +55,10 @@ class VibratingWall:
         axis: ``"x"``, ``"y"`` or ``"z"``; the axis must be closed by walls.
         side: ``"lower"`` (the wall at :math:`-L/2`, a floor under gravity along :math:`-z`) or ``"upper"``.
         wave: ``"sine"``, ``"triangle"`` or ``"sawtooth"``.
+        stick_speed: the rebound speed relative to the wall below which a particle that the wall
+            presses sticks to it and rides (``None``: :data:`STICK` :math:`a\\omega`; 0: never, the
+            bounces then pile up until the run stops with :class:`edmd.CollapseError` unless the
+            TC model keeps it going).
 
     Example:
         >>> import edmd, numpy as np
@@ -64,6 +77,7 @@ class VibratingWall:
     axis: str = "z"
     side: str = "lower"
     wave: str = "sine"
+    stick_speed: float | None = None
 
     def __post_init__(self):
         for name in ("amplitude", "omega"):
@@ -72,6 +86,10 @@ class VibratingWall:
                 raise ValueError(f"VibratingWall {name} must be a positive number, got {value!r}")
         if not (isinstance(self.phase, int | float) and math.isfinite(self.phase)):
             raise ValueError(f"VibratingWall phase must be a finite number (radians), got {self.phase!r}")
+        speed = self.stick_speed
+        if speed is not None and not (isinstance(speed, int | float) and math.isfinite(speed) and speed >= 0):
+            raise ValueError(f"VibratingWall stick_speed must be a number >= 0 (or None), got {speed!r}")
+        object.__setattr__(self, "stick_speed", STICK * self.amplitude * self.omega if speed is None else float(speed))
         for name, allowed in (("axis", tuple(AXES)), ("side", SIDES), ("wave", tuple(WAVES))):
             if getattr(self, name) not in allowed:
                 raise ValueError(f"VibratingWall {name} must be one of {', '.join(allowed)}, got {getattr(self, name)!r}")
@@ -113,7 +131,7 @@ class VibratingWall:
         """The core's description (``layout.G_WALL_*``) for local times counted from ``origin``:
         the phase at local time 0 is reduced to one period."""
         phase = math.fmod(self.omega * origin + self.phase, 2.0 * math.pi)
-        return (self.axis_index, SIDES.index(self.side), WAVES[self.wave], self.amplitude, self.omega, phase)
+        return (self.axis_index, SIDES.index(self.side), WAVES[self.wave], self.amplitude, self.omega, phase, self.stick_speed)
 
     def to_dict(self) -> dict:
         """JSON-ready parameters."""

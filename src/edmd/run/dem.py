@@ -267,6 +267,10 @@ class DEMEngine:
             check_overlaps=False,
         )
 
+    def accumulators_at(self, t: float) -> np.ndarray:
+        """The accumulators (they are current at the engine's time)."""
+        return self.acc
+
     def kinetic_integral(self, t: float) -> float:
         r""":math:`\int E_{\rm kin}\,dt` since the start (trapezoidal over the steps), at the current time."""
         return float(self.sums[_dem.S_KE_INT])

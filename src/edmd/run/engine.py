@@ -23,7 +23,7 @@ from .._core.bath import bath_schedule
 from .._core.bundles import Drive, Lists, Particles, new_events, new_pairs
 from .._core.cells import GI_WORK, new_grid
 from .._core.jit import in_disk_cache
-from .._core.loop import GEO_ARG, loop_variant
+from .._core.loop import GEO_ARG, integrate_kinetic, loop_variant
 from .._core.queue import QI_MOVED, calendar_shape, new_queue, queue_build
 from .._core.snapshot import stream_all
 from .._core.nblist import list_reach
@@ -365,11 +365,16 @@ class Engine:
         for bundle in ("part", "ev", "q", "grid", "lists", "emd", "drive", "pairs"):
             setattr(self, bundle, None)  # (a resync's old arrays go before the new ones are made; nothing below refuses the state)
         self.tag = order.astype(np.int32)
-        P = np.zeros((n, L.ROW))
+        P = np.zeros((n, L.ROW + (self.vibration is not None)))  # (the riders' column: a vibrating wall's runs only)
         for k in range(self.dim):  # (a column at a time: no temporary copy of every position)
             P[:, k] = state.position[order, k]
             P[:, 3 + k] = state.velocity[order, k]
         P[:, L.R] = state.radius[order]
+        self.acc[L.A_RIDE_MASS] = 0.0
+        if self.vibration is not None:
+            riding = self._riders(state)[order]
+            P[:, L.RIDE] = riding
+            self.acc[L.A_RIDE_MASS] = float(state.mass[order] @ riding)
         image = np.zeros((n, 3), np.int32)
         for k in range(self.dim):
             image[:, k] = state.image[order, k]
@@ -384,6 +389,22 @@ class Engine:
         self._rebuild()
         if new and self.well is not None and not self._derive_captures:
             self._check_captured(state)
+
+    def _riders(self, state: State) -> np.ndarray:
+        """The particles of ``state`` (user order) that go on riding on the vibrating wall: those
+        marked ``riding`` that are on it and move with it (to round-off). Any other (the wall
+        does not let particles stick, an updater changed the velocity) flies on from where it is."""
+        riding = np.asarray(state.riding, bool)
+        vib = self.vibration
+        if not riding.any() or vib.stick_speed == 0.0:
+            return np.zeros(self.n)
+        k, t = vib.axis_index, float(state.time)
+        sign = 1.0 if vib.side == "lower" else -1.0
+        plane, u = vib.plane(t, float(self.box[k])), sign * vib.velocity(t)
+        scale = vib.amplitude * (1.0 + vib.omega)
+        on = np.abs(state.position[:, k] - plane - sign * state.radius) <= 1e-9 * (scale + state.radius)
+        with_it = np.abs(state.velocity[:, k] - u) <= 1e-9 * scale
+        return (riding & on & with_it).astype(float)
 
     def _spins(self, state: State, order: np.ndarray):
         """Spins and moments of inertia in internal order, or arrays of size 0 when nothing turns:
@@ -632,7 +653,7 @@ class Engine:
         """Close the collision log and the kinetic-energy integral at local time ``local`` (the
         time of ``state``) and rebuild every array from ``state``."""
         self._flush_log()
-        self.acc[L.A_KE_INT] += self._kinetic_tail(local)
+        integrate_kinetic(self.acc, local, self.geo, self.fp[L.FP_MTOT])
         self.load(state, new=False)
 
     def restore(self, state: State, counters: np.ndarray, accumulators: np.ndarray, list_capacity: int):
@@ -687,6 +708,7 @@ class Engine:
             "image": image,
             "periodic": self.periodic.copy(),
             "last_collision": self._user_order(tlast + self.t_origin) if len(tlast) else filled(-np.inf, (n,)),
+            "riding": self._user_order(self.part.rows[:, L.RIDE] != 0.0) if self.vibration is not None else filled(False, (n,), bool),
         }
         if self.emd_rule is not None:
             partner = self.emd.partner
@@ -738,20 +760,17 @@ class Engine:
             "emd_fallbacks": int(c[L.C_EMD_FALLBACK]),
         }
 
-    def _kinetic_tail(self, t_local: float) -> float:
-        """Integral of the translational kinetic energy from the last energy-changing event to ``t_local``.
-
-        Same exact gravity-aware formula as :func:`edmd._core.loop.integrate_kinetic`.
-        """
-        tau = t_local - self.acc[L.A_LAST_T]
-        g = self.grav
-        gp = float(g @ self.acc[L.A_PX : L.A_PZ + 1])
-        mg2 = self.fp[L.FP_MTOT] * float(g @ g)
-        return float(self.acc[L.A_KE] * tau + 0.5 * gp * tau**2 + mg2 * tau**3 / 6.0)
+    def accumulators_at(self, t: float) -> np.ndarray:
+        """A copy of the accumulators (``layout.ACCUMULATORS``) carried on to absolute time ``t``
+        (no event before it): the kinetic-energy integral, and the work and momentum that the
+        vibrating wall gives the particles riding on it (:func:`edmd._core.loop.integrate_kinetic`)."""
+        acc = self.acc.copy()
+        integrate_kinetic(acc, t - self.t_origin, self.geo, self.fp[L.FP_MTOT])
+        return acc
 
     def kinetic_integral(self, t: float) -> float:
         """Cumulative time integral of the translational kinetic energy up to absolute ``t``."""
-        return float(self.acc[L.A_KE_INT]) + self._kinetic_tail(t - self.t_origin)
+        return float(self.accumulators_at(t)[L.A_KE_INT])
 
     # ------------------------------------------------------------------ collision log
     def enable_log(self, capacity: int = 65536, walls: bool = False):

@@ -153,16 +153,17 @@ class Simulation:
     def totals(self) -> Totals:
         """Cumulative counters and integrals at the current time."""
         e = self._engine
+        acc = e.accumulators_at(self._time)
         return Totals(
             time=self._time,
             events=self.events,
             collisions=self.collisions,
-            virial=float(e.acc[L.A_VIRIAL]),
+            virial=float(acc[L.A_VIRIAL]),
             kinetic_integral=e.kinetic_integral(self._time),
-            dissipated=float(e.acc[L.A_DISSIPATED]),
-            wall_impulse=e.acc[L.A_WALL : L.A_WALL + 2 * e.dim].reshape(e.dim, 2).copy(),
+            dissipated=float(acc[L.A_DISSIPATED]),
+            wall_impulse=acc[L.A_WALL : L.A_WALL + 2 * e.dim].reshape(e.dim, 2).copy(),
             wall_collisions=int(e.cnt[L.C_WALL]),
-            energy_input=float(e.acc[L.A_ENERGY_INPUT]),
+            energy_input=float(acc[L.A_ENERGY_INPUT]),
         )
 
     @property
