@@ -112,6 +112,7 @@ class Engine:
                 raise ValueError(f"gravity must be {self.dim} finite numbers, got {gravity!r}")
             self.grav[: self.dim] = g
         self.vibration = vibration
+        self.well = well
         self.geo = self._geometry(float(state.time))
         self.fp = np.zeros(L.N_FP)
         self.ip = np.zeros(L.N_IP, np.int64)
@@ -313,6 +314,8 @@ class Engine:
     def _geometry(self, origin: float) -> tuple:
         """The ``geo`` tuple for local times counted from ``origin`` (a vibrating wall's phase depends on it)."""
         wall = None if self.vibration is None else self.vibration.geo_entries(origin)
+        if wall is not None and self.well is not None:  # (no riders: the wells' pair events do not follow the wall)
+            wall = (*wall[:-1], 0.0)
         return L.make_geo(self.box, self.half, self.grav, wall)
 
     def _check_vibration(self, state: State, vib):
@@ -396,7 +399,7 @@ class Engine:
         does not let particles stick, an updater changed the velocity) flies on from where it is."""
         riding = np.asarray(state.riding, bool)
         vib = self.vibration
-        if not riding.any() or vib.stick_speed == 0.0:
+        if not riding.any() or self.geo[L.G_WALL_STICK] == 0.0:
             return np.zeros(self.n)
         k, t = vib.axis_index, float(state.time)
         sign = 1.0 if vib.side == "lower" else -1.0
