@@ -29,7 +29,7 @@ from .contact import MODEL_HERTZ, contact_scales
 from .jit import hot, leaf
 from .predict import wrap3
 from .twobody import dashpot_central
-from .wallmotion import has_wall, is_moving, pressing, stick_speed, wall_velocity
+from .wallmotion import sticks, wall_velocity
 
 
 @leaf
@@ -227,12 +227,9 @@ def collide_wall(t, P, mass, omega, inertia, tlast, i, axis, face, geo, fp, ip, 
         beta = -1.0
     else:
         e = normal_restitution(ip[L.IP_WALL_NORMAL], fp[L.FP_WALL_EN], -gn, mi, ri, fp, ip, etab)
-    stick = False  # the sticking solution (physics.md §1.6.3): a slow rebound from a pressing wall rides on it
-    if has_wall(geo) and P.shape[1] > L.ROW and is_moving(axis, face, geo):
-        vs = stick_speed(geo)
-        stick = vs > 0.0 and -e * gn <= vs and pressing(t, geo)
-        if stick:
-            e = 0.0
+    stick = sticks(P, axis, face, t, -e * gn, geo)  # the sticking solution (physics.md §1.6.3)
+    if stick:
+        e = 0.0
     k0 = _energy(P, mass, omega, inertia, i, False)
     if uw != 0.0:  # into the wall's frame
         P[i, L.VX + axis] -= uw

@@ -38,8 +38,8 @@ from .predict import INF, advance, box_shift, contact_time, flight, separation, 
 from .schedule import repredict, set_pair, wrap_into_box
 from .twobody import collision_frame, lab_frame_update
 from .twobody_friction import frictional_update
-from .wallmotion import rides, wall_planes
-from .walls import ride_contact_time
+from .wallmotion import wall_planes
+from .walls import ride_pair_dt
 
 
 @hot
@@ -107,10 +107,7 @@ def relocation_scan(p, x, y, z, v, i, j, t, P, grid, geo, walls, cbuf, predict):
                 if d2 < ox * ox + oy * oy + oz * oz:
                     return True, best, bk
             if predict:
-                if rides(P, k, geo):
-                    dt = ride_contact_time(x, y, z, v[0], v[1], v[2], r, P, k, t, geo)
-                else:
-                    dt = contact_time(dx, dy, dz, v[0] - kvx, v[1] - kvy, v[2] - kvz, sig)
+                dt = ride_pair_dt(p, x, y, z, v[0], v[1], v[2], r, P, k, t, geo, contact_time(dx, dy, dz, v[0] - kvx, v[1] - kvy, v[2] - kvz, sig))
                 if dt < best:
                     best, bk = dt, k
             tested += 1

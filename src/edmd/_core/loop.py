@@ -13,8 +13,6 @@ Array bundles are named tuples of :mod:`.bundles` (no objects): ``part`` (:class
 
 from typing import Callable, NamedTuple
 
-import math
-
 import numpy as np
 
 from . import layout as L
@@ -24,10 +22,10 @@ from .collide import collide_pair, collide_wall
 from .emdstar import emd_contact, emd_contact_frictional, execute_b, finish_contact, is_pending
 from .forcing import white_noise_kick
 from .jit import hot, jit
-from .layout import WAVE_SINE, CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTACT_GROWN, CONTACT_SOFT, CONTACT_WELL, NB_LIST, NORMAL_SOFT, TANGENT_SMOOTH
+from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTACT_GROWN, CONTACT_SOFT, CONTACT_WELL, NB_LIST, NORMAL_SOFT, TANGENT_SMOOTH
 from .nblist import build_lists, list_reach, rebuild_list
 from .predict import advance, separation
-from .wallmotion import has_wall, release, ride_axis, rider_axis, take_off, wall_params
+from .wallmotion import has_wall, integrate_riding, release, take_off
 from .queue import queue_top, queue_update
 from .schedule import cross_cell, predict_aux, predict_pair, repredict, requeue, wrap_into_box
 from .growth import collide_growing
@@ -82,10 +80,9 @@ def integrate_kinetic(acc, t, geo, total_mass):
 
     Between events the total momentum only feels gravity, :math:`\mathbf P(\tau) = \mathbf P_0 + M\mathbf G\tau`,
     so :math:`E(\tau) = E_0 + \mathbf G\cdot\mathbf P_0\,\tau + \tfrac12 M G^2\tau^2` is integrated exactly.
-    Particles riding on the vibrating wall move with it instead (:func:`_integrate_riding`).
+    Particles riding on the vibrating wall move with it instead (:func:`.wallmotion.integrate_riding`).
     """
-    if has_wall(geo) and acc[L.A_RIDE_MASS] != 0.0:
-        _integrate_riding(acc, t, geo, total_mass)
+    if integrate_riding(acc, t, geo, total_mass):
         return
     tau = t - acc[L.A_LAST_T]
     gp = geo[L.G_GX] * acc[L.A_PX] + geo[L.G_GY] * acc[L.A_PY] + geo[L.G_GZ] * acc[L.A_PZ]
@@ -94,47 +91,6 @@ def integrate_kinetic(acc, t, geo, total_mass):
     acc[L.A_KE] += gp * tau + 0.5 * mg2 * tau * tau
     for k in range(3):
         acc[L.A_PX + k] += total_mass * geo[L.G_GX + k] * tau
-    acc[L.A_LAST_T] = t
-
-
-@jit
-def _integrate_riding(acc, t, geo, total_mass):
-    r""":func:`integrate_kinetic` with particles of total mass :math:`M_r` riding on the vibrating
-    wall (physics.md §1.6.3): they all move with the wall along its axis :math:`k`,
-    :math:`v_k = u(t)`, and freely across it.
-
-    Their axial motion is taken out of the free-flight integral and added back exactly, with
-    :math:`\int_{t_0}^{t} \tfrac12 M_r u^2\,dt'` in closed form (sine:
-    :math:`u^2 = a^2\omega^2\cos^2\theta`; a linear piece: :math:`u` constant). The wall's
-    work on them, :math:`M_r[\tfrac12(u^2 - u_0^2) - G_k(x_k - x_{k,0})]`, is energy input, and
-    the momentum it gives them, :math:`M_r[u - u_0 - G_k(t - t_0)]`, the wall's momentum.
-    """
-    t0 = acc[L.A_LAST_T]
-    tau = t - t0
-    mr = acc[L.A_RIDE_MASS]
-    k, sign, _gn = ride_axis(geo)
-    _k, face, wave, a, om, phase = wall_params(geo)
-    if int(wave) == WAVE_SINE:
-        _k, x0, u0 = rider_axis(t0, 0.0, geo)
-        _k, x1, u1 = rider_axis(t, 0.0, geo)
-        th0, th1 = phase + om * t0, phase + om * t
-        u2_int = a * a * om * om * (0.5 * tau + (math.sin(2.0 * th1) - math.sin(2.0 * th0)) / (4.0 * om))
-    else:  # one linear piece (a ride ends at the piece's end): its velocity
-        _k, _x, u0 = rider_axis(0.5 * (t0 + t), 0.0, geo)
-        u1, x0, x1 = u0, 0.0, u0 * tau
-        u2_int = u0 * u0 * tau
-    acc[L.A_PX + k] -= mr * u0
-    acc[L.A_KE] -= 0.5 * mr * u0 * u0
-    gk = geo[L.G_GX + k]
-    gp = geo[L.G_GX] * acc[L.A_PX] + geo[L.G_GY] * acc[L.A_PY] + geo[L.G_GZ] * acc[L.A_PZ]
-    mg2 = total_mass * (geo[L.G_GX] ** 2 + geo[L.G_GY] ** 2 + geo[L.G_GZ] ** 2) - mr * gk * gk
-    acc[L.A_KE_INT] += acc[L.A_KE] * tau + 0.5 * gp * tau * tau + mg2 * tau * tau * tau / 6.0 + 0.5 * mr * u2_int
-    acc[L.A_KE] += gp * tau + 0.5 * mg2 * tau * tau + 0.5 * mr * u1 * u1
-    for m in range(3):
-        acc[L.A_PX + m] += (total_mass - (mr if m == k else 0.0)) * geo[L.G_GX + m] * tau
-    acc[L.A_PX + k] += mr * u1
-    acc[L.A_ENERGY_INPUT] += mr * (0.5 * (u1 * u1 - u0 * u0) - gk * (x1 - x0))
-    acc[L.A_WALL + 2 * k + int(face)] += sign * mr * (u1 - u0 - gk * tau)
     acc[L.A_LAST_T] = t
 
 

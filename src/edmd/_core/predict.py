@@ -10,7 +10,7 @@ import numpy as np
 from .jit import leaf
 
 from .layout import G_GX, G_GY, G_GZ, G_HX, G_HY, G_HZ, G_LX, G_LY, G_LZ, G_ON, R, T, VX, VY, VZ, X, Y, Z
-from .wallmotion import rider_axis, rides
+from .wallmotion import ride_flight
 
 INF = np.inf
 
@@ -93,15 +93,7 @@ def flight(P, i, t, geo):
         vx += geo[G_GX] * dt
         vy += geo[G_GY] * dt
         vz += geo[G_GZ] * dt
-    if rides(P, i, geo):
-        k, xk, vk = rider_axis(t, P[i, R], geo)
-        if k == 0:
-            x, vx = xk, vk
-        elif k == 1:
-            y, vy = xk, vk
-        else:
-            z, vz = xk, vk
-    return x, y, z, vx, vy, vz
+    return ride_flight(P, i, t, geo, x, y, z, vx, vy, vz)
 
 
 @leaf

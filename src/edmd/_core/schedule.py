@@ -14,6 +14,7 @@ called form for rare whole-particle re-predictions (global events, eMD* exceptio
 """
 
 import numpy as np
+from numba.extending import overload
 
 from . import layout as L
 from .cells import cell_insert, cell_remove, count_work, crossing_time, walk_cells, walk_next
@@ -22,8 +23,8 @@ from .layout import NB_LIST
 from .nblist import SQRT3, shell_exit_time
 from .predict import INF, box_shift, contact_time, flight, gap_time, relative_to, wrap3
 from .queue import queue_update
-from .wallmotion import has_wall, is_moving, level_time, ride_axis, ride_end, rides
-from .walls import moving_wall_time, ride_contact_time
+from .wallmotion import vibrating_type, has_wall, is_moving, level_time, ride_axis, ride_end, wall_params
+from .walls import moving_wall_time, ride_pair_dt
 from .growth import closer_grow
 from .wells import closer_well, well_reach
 
@@ -38,17 +39,9 @@ def set_pair(ev, count, i, t, j):
 @hot
 def _closer(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, best, bj):
     """The earlier of the current best ``(dt, partner)`` and a contact of ``i`` (at ``x_i`` with
-    ``v_i``, radius ``ri``) with ``j``; a pair of which one rides on the vibrating wall is
-    searched by :func:`.walls.ride_contact_time` (two riders move alike along the wall's axis)."""
-    if has_wall(geo) and rides(P, i, geo) != rides(P, j, geo):
-        if rides(P, j, geo):
-            dt = ride_contact_time(xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo)
-        else:
-            xj, yj, zj, vxj, vyj, vzj = flight(P, j, t, geo)
-            dt = ride_contact_time(xj, yj, zj, vxj, vyj, vzj, P[j, L.R], P, i, t, geo)
-    else:
-        dx, dy, dz, gx, gy, gz = relative_to(xi, yi, zi, vxi, vyi, vzi, P, j, t, geo)
-        dt = contact_time(dx, dy, dz, gx, gy, gz, ri + P[j, L.R])
+    ``v_i``, radius ``ri``) with ``j`` (with a vibrating wall, :func:`.walls.ride_pair_dt`)."""
+    dx, dy, dz, gx, gy, gz = relative_to(xi, yi, zi, vxi, vyi, vzi, P, j, t, geo)
+    dt = ride_pair_dt(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, contact_time(dx, dy, dz, gx, gy, gz, ri + P[j, L.R]))
     if dt < best:
         return dt, j
     return best, bj
@@ -157,10 +150,8 @@ def predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, s
     (when ``walls``; ``wall_axes`` has bit ``k`` set for axis ``k``; with ``grow``, radii growing at
     the local ``rate``), its eMD* B event (``ptb``, when ``emd_on``) or its Andersen bath event
     (``bath_t``, when ``bath_on``)."""
-    riding = rides(P, i, geo)
-    if riding:
-        ride_events(i, t, P, ev, grid, lists, geo, mode, skin)
-        wall_axes = wall_axes & ~(1 << ride_axis(geo)[0])  # (it cannot reach the opposite wall)
+    if ride_aux(i, t, P, ev, grid, lists, geo, mode, skin):
+        wall_axes = wall_axes & ~(1 << int(wall_params(geo)[0]))  # (a rider cannot reach the opposite wall)
     elif mode == NB_LIST:
         ev.aux_t[i] = shell_exit_time(P, i, t, lists, geo, skin)
         ev.aux_k[i] = L.AUX_SHELL
@@ -176,6 +167,29 @@ def predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, s
     if bath_on and bath_t[i] < ev.aux_t[i]:
         ev.aux_t[i] = bath_t[i]
         ev.aux_k[i] = L.AUX_BATH
+
+
+def ride_aux(i, t, P, ev, grid, lists, geo, mode, skin):
+    """If ``i`` rides on the vibrating wall, its single-particle events but the walls
+    (:func:`ride_events`), and ``True``; ``False`` otherwise."""
+    if has_wall(geo) and P.shape[1] > L.ROW and P[i, L.RIDE] != 0.0:
+        ride_events(i, t, P, ev, grid, lists, geo, mode, skin)
+        return True
+    return False
+
+
+@overload(ride_aux, inline="always")
+def _ride_aux_hook(i, t, P, ev, grid, lists, geo, mode, skin):
+    if not vibrating_type(geo):
+        return lambda i, t, P, ev, grid, lists, geo, mode, skin: False
+
+    def impl(i, t, P, ev, grid, lists, geo, mode, skin):
+        if P.shape[1] > L.ROW and P[i, L.RIDE] != 0.0:
+            ride_events(i, t, P, ev, grid, lists, geo, mode, skin)
+            return True
+        return False
+
+    return impl
 
 
 @jit

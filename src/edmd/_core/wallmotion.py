@@ -29,7 +29,7 @@ from numba import types
 from numba.extending import overload
 
 from .jit import jit, leaf
-from .layout import A_RIDE_MASS, G_GX, G_WALL_A, G_WALL_AXIS, G_WALL_FACE, G_WALL_OMEGA, G_WALL_PHASE, G_WALL_STICK, G_WALL_WAVE, NO_MOVING_WALL, R, RIDE, ROW, VX, WAVE_SINE, WAVE_TRIANGLE, X
+from .layout import A_ENERGY_INPUT, A_KE, A_KE_INT, A_LAST_T, A_PX, A_PY, A_PZ, A_RIDE_MASS, A_WALL, G_GX, G_GY, G_GZ, G_WALL_A, G_WALL_AXIS, G_WALL_FACE, G_WALL_OMEGA, G_WALL_PHASE, G_WALL_STICK, G_WALL_WAVE, NO_MOVING_WALL, R, RIDE, ROW, VX, WAVE_SINE, WAVE_TRIANGLE, X
 
 TWO_PI = 2.0 * math.pi
 INF = math.inf
@@ -165,14 +165,6 @@ def _stick_speed(geo):
 
 
 @leaf
-def rides(P, i, geo):
-    """Whether particle ``i`` rides on the vibrating wall (always ``False`` without one)."""
-    if has_wall(geo):
-        return P.shape[1] > ROW and P[i, RIDE] != 0.0
-    return False
-
-
-@leaf
 def ride_axis(geo):
     """The vibrating wall's axis, the sign of its inward normal (+1 for the lower wall) and
     gravity's component along that normal, :math:`g_n`."""
@@ -213,24 +205,170 @@ def _ride_piece(t, geo):
     return a * (2.0 if dw > 0.0 else 0.0), a * om * dw
 
 
+def vibrating_type(geo):
+    """Whether the Numba type of a geometry is that of a run with a vibrating wall (typing time)."""
+    return isinstance(geo, types.BaseTuple) and len(geo) > G_WALL_AXIS
+
+
+# The hooks below are the only doors from the event loop into the riders' code. Each is an
+# overload: a geometry without a vibrating wall gets a no-op, so the loop variants of other
+# runs never type (nor compile) any of it (typed dead branches cost plain runs 6 CPU-s, measured).
+
+
 @leaf
-def release(P, i, mass, acc, geo):
-    """End the ride of ``i`` (streamed to now) if it rides: it flies on from where it is."""
-    if rides(P, i, geo):
+def _release(P, i, mass, acc):
+    if P[i, RIDE] != 0.0:
         P[i, RIDE] = 0.0
         acc[A_RIDE_MASS] -= mass[i]
 
 
+def release(P, i, mass, acc, geo):
+    """End the ride of ``i`` (streamed to now) if it rides: it flies on from where it is."""
+    if has_wall(geo) and P.shape[1] > ROW:
+        _release(P, i, mass, acc)
+
+
+@overload(release, inline="always")
+def _release_hook(P, i, mass, acc, geo):
+    if vibrating_type(geo):
+        return lambda P, i, mass, acc, geo: _release(P, i, mass, acc)
+    return lambda P, i, mass, acc, geo: None
+
+
 @leaf
-def take_off(P, i, t, mass, acc, geo):
-    """The take-off of rider ``i`` at local time ``t`` (:func:`ride_end`), streamed to ``t``:
-    it leaves with the wall's motion just before ``t`` (on a linear wave, the end of the piece
-    it rode) and flies on."""
+def _take_off(P, i, t, mass, acc, geo):
     d, u = _ride_piece(t, geo)
     k, x, v = _rider_coordinate(d, u, P[i, R], geo)
     P[i, X + k] = x
     P[i, VX + k] = v
-    release(P, i, mass, acc, geo)
+    _release(P, i, mass, acc)
+
+
+def take_off(P, i, t, mass, acc, geo):
+    """The take-off of rider ``i`` at local time ``t`` (:func:`ride_end`), streamed to ``t``:
+    it leaves with the wall's motion just before ``t`` (on a linear wave, the end of the piece
+    it rode) and flies on."""
+    if has_wall(geo):
+        _take_off(P, i, t, mass, acc, geo)
+
+
+@overload(take_off, inline="always")
+def _take_off_hook(P, i, t, mass, acc, geo):
+    if vibrating_type(geo):
+        return lambda P, i, t, mass, acc, geo: _take_off(P, i, t, mass, acc, geo)
+    return lambda P, i, t, mass, acc, geo: None
+
+
+@leaf
+def _ride_flight(P, i, t, geo, x, y, z, vx, vy, vz):
+    if P.shape[1] > ROW and P[i, RIDE] != 0.0:
+        k, xk, vk = rider_axis(t, P[i, R], geo)
+        if k == 0:
+            x, vx = xk, vk
+        elif k == 1:
+            y, vy = xk, vk
+        else:
+            z, vz = xk, vk
+    return x, y, z, vx, vy, vz
+
+
+def ride_flight(P, i, t, geo, x, y, z, vx, vy, vz):
+    """Position and velocity ``(x, v)`` of particle ``i`` at local time ``t`` from its free flight:
+    a rider's along the wall's axis are the wall's (:func:`rider_axis`)."""
+    if has_wall(geo):
+        return _ride_flight(P, i, t, geo, x, y, z, vx, vy, vz)
+    return x, y, z, vx, vy, vz
+
+
+@overload(ride_flight, inline="always")
+def _ride_flight_hook(P, i, t, geo, x, y, z, vx, vy, vz):
+    if vibrating_type(geo):
+        return lambda P, i, t, geo, x, y, z, vx, vy, vz: _ride_flight(P, i, t, geo, x, y, z, vx, vy, vz)
+    return lambda P, i, t, geo, x, y, z, vx, vy, vz: (x, y, z, vx, vy, vz)
+
+
+@leaf
+def _sticks(P, axis, face, t, rebound, geo):
+    vs = stick_speed(geo)
+    return P.shape[1] > ROW and is_moving(axis, face, geo) and vs > 0.0 and rebound <= vs and pressing(t, geo)
+
+
+def sticks(P, axis, face, t, rebound, geo):
+    """Whether a particle bouncing off wall ``face`` of ``axis`` at local time ``t`` with the
+    normal speed ``rebound`` relative to it sticks to it: the vibrating wall, pressing, and a
+    rebound slower than the stick speed (:func:`stick_speed`)."""
+    return has_wall(geo) and _sticks(P, axis, face, t, rebound, geo)
+
+
+@overload(sticks, inline="always")
+def _sticks_hook(P, axis, face, t, rebound, geo):
+    if vibrating_type(geo):
+        return lambda P, axis, face, t, rebound, geo: _sticks(P, axis, face, t, rebound, geo)
+    return lambda P, axis, face, t, rebound, geo: False
+
+
+@jit
+def _integrate_riding(acc, t, geo, total_mass):
+    r""":func:`.loop.integrate_kinetic` with particles of total mass :math:`M_r` riding on the vibrating
+    wall (physics.md §1.6.3): they all move with the wall along its axis :math:`k`,
+    :math:`v_k = u(t)`, and freely across it.
+
+    Their axial motion is taken out of the free-flight integral and added back exactly, with
+    :math:`\int_{t_0}^{t} \tfrac12 M_r u^2\,dt'` in closed form (sine:
+    :math:`u^2 = a^2\omega^2\cos^2\theta`; a linear piece: :math:`u` constant). The wall's
+    work on them, :math:`M_r[\tfrac12(u^2 - u_0^2) - G_k(x_k - x_{k,0})]`, is energy input, and
+    the momentum it gives them, :math:`M_r[u - u_0 - G_k(t - t_0)]`, the wall's momentum.
+    """
+    t0 = acc[A_LAST_T]
+    tau = t - t0
+    mr = acc[A_RIDE_MASS]
+    k, sign, _gn = ride_axis(geo)
+    _k, face, wave, a, om, phase = wall_params(geo)
+    if int(wave) == WAVE_SINE:
+        _k, x0, u0 = rider_axis(t0, 0.0, geo)
+        _k, x1, u1 = rider_axis(t, 0.0, geo)
+        th0, th1 = phase + om * t0, phase + om * t
+        u2_int = a * a * om * om * (0.5 * tau + (math.sin(2.0 * th1) - math.sin(2.0 * th0)) / (4.0 * om))
+    else:  # one linear piece (a ride ends at the piece's end): its velocity
+        _k, _x, u0 = rider_axis(0.5 * (t0 + t), 0.0, geo)
+        u1, x0, x1 = u0, 0.0, u0 * tau
+        u2_int = u0 * u0 * tau
+    acc[A_PX + k] -= mr * u0
+    acc[A_KE] -= 0.5 * mr * u0 * u0
+    gk = geo[G_GX + k]
+    gp = geo[G_GX] * acc[A_PX] + geo[G_GY] * acc[A_PY] + geo[G_GZ] * acc[A_PZ]
+    mg2 = total_mass * (geo[G_GX] ** 2 + geo[G_GY] ** 2 + geo[G_GZ] ** 2) - mr * gk * gk
+    acc[A_KE_INT] += acc[A_KE] * tau + 0.5 * gp * tau * tau + mg2 * tau * tau * tau / 6.0 + 0.5 * mr * u2_int
+    acc[A_KE] += gp * tau + 0.5 * mg2 * tau * tau + 0.5 * mr * u1 * u1
+    for m in range(3):
+        acc[A_PX + m] += (total_mass - (mr if m == k else 0.0)) * geo[G_GX + m] * tau
+    acc[A_PX + k] += mr * u1
+    acc[A_ENERGY_INPUT] += mr * (0.5 * (u1 * u1 - u0 * u0) - gk * (x1 - x0))
+    acc[A_WALL + 2 * k + int(face)] += sign * mr * (u1 - u0 - gk * tau)
+    acc[A_LAST_T] = t
+
+
+def integrate_riding(acc, t, geo, total_mass):
+    """Advance the accumulators to local time ``t`` as :func:`_integrate_riding` if particles ride
+    on the vibrating wall, and say whether it did (the event loop's integral does it otherwise)."""
+    if has_wall(geo) and acc[A_RIDE_MASS] != 0.0:
+        _integrate_riding(acc, t, geo, total_mass)
+        return True
+    return False
+
+
+@overload(integrate_riding, inline="always")
+def _integrate_riding_hook(acc, t, geo, total_mass):
+    if not vibrating_type(geo):
+        return lambda acc, t, geo, total_mass: False
+
+    def impl(acc, t, geo, total_mass):
+        if acc[A_RIDE_MASS] != 0.0:
+            _integrate_riding(acc, t, geo, total_mass)
+            return True
+        return False
+
+    return impl
 
 
 @leaf

@@ -39,9 +39,11 @@ and the work done by the wall, :math:`W = u\,J_n`, is booked as energy input.
 import math
 
 from .jit import jit, leaf
-from .layout import G_GX, R, WAVE_SINE, WAVE_TRIANGLE
+from numba.extending import overload
+
+from .layout import G_GX, R, RIDE, ROW, WAVE_SINE, WAVE_TRIANGLE
 from .predict import INF, flight, gap_time, wrap3
-from .wallmotion import TWO_PI, _cycle, _linear_wave, ride_axis, ride_end, rider_axis, wall_params
+from .wallmotion import TWO_PI, _cycle, _linear_wave, vibrating_type, has_wall, ride_axis, ride_end, rider_axis, wall_params
 
 
 @leaf
@@ -269,3 +271,29 @@ def ride_contact_time(xf, yf, zf, vxf, vyf, vzf, rf, P, q, t, geo):
             window = 4.0 * step
         s += step
     return s
+
+
+@leaf
+def _ride_pair_dt(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, dt):
+    ride_i = P.shape[1] > ROW and P[i, RIDE] != 0.0
+    if ride_i == (P.shape[1] > ROW and P[j, RIDE] != 0.0):
+        return dt  # (two riders move alike along the wall's axis: a straight relative flight)
+    if not ride_i:
+        return ride_contact_time(xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo)
+    xj, yj, zj, vxj, vyj, vzj = flight(P, j, t, geo)
+    return ride_contact_time(xj, yj, zj, vxj, vyj, vzj, P[j, R], P, i, t, geo)
+
+
+def ride_pair_dt(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, dt):
+    """The contact time of ``i`` (at ``x_i`` with ``v_i``, radius ``ri``) and ``j`` when one of them rides on the vibrating wall (:func:`ride_contact_time`); ``dt``,
+    the straight-flight time, otherwise."""
+    if has_wall(geo) and P.shape[1] > ROW:
+        return _ride_pair_dt(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, dt)
+    return dt
+
+
+@overload(ride_pair_dt, inline="always")
+def _ride_pair_dt_hook(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, dt):
+    if vibrating_type(geo):
+        return lambda i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, dt: _ride_pair_dt(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, dt)
+    return lambda i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, dt: dt
