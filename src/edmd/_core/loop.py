@@ -265,8 +265,8 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well, grow
                         finish_contact(i, i, -1, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd, bath_t, pairs)
                     advance(P, i, t, geo)
                     integrate_kinetic(acc, t, geo, total_mass)
+                    release(P, i, mass, acc, geo)  # (a rider on the vibrating wall flies on with its new velocity)
                     if bath_on and kind == L.AUX_BATH:
-                        release(P, i, mass, acc, geo)  # (a rider's new velocity is its own)
                         bath_event(i, t, P, mass, omega, inertia, count, drive, fp, acc, rough or ip[L.IP_WALL_TANGENT] != TANGENT_SMOOTH)
                         cnt[L.C_BATH] += 1
                     elif walls:

@@ -395,18 +395,18 @@ class Engine:
 
     def _riders(self, state: State) -> np.ndarray:
         """The particles of ``state`` (user order) that go on riding on the vibrating wall: those
-        marked ``riding`` that are on it and move with it (to round-off). Any other (the wall
-        does not let particles stick, an updater changed the velocity) flies on from where it is."""
+        marked ``riding`` that are on it and move with it, to within what the stick speed allows
+        (and the round-off of the wall's phase at late times). Any other (the wall does not let
+        particles stick, an updater changed the velocity) flies on from where it is."""
         riding = np.asarray(state.riding, bool)
-        vib = self.vibration
-        if not riding.any() or self.geo[L.G_WALL_STICK] == 0.0:
+        vib, speed = self.vibration, self.geo[L.G_WALL_STICK]
+        if not riding.any() or speed == 0.0:
             return np.zeros(self.n)
         k, t = vib.axis_index, float(state.time)
         sign = 1.0 if vib.side == "lower" else -1.0
         plane, u = vib.plane(t, float(self.box[k])), sign * vib.velocity(t)
-        scale = vib.amplitude * (1.0 + vib.omega)
-        on = np.abs(state.position[:, k] - plane - sign * state.radius) <= 1e-9 * (scale + state.radius)
-        with_it = np.abs(state.velocity[:, k] - u) <= 1e-9 * scale
+        on = np.abs(state.position[:, k] - plane - sign * state.radius) <= speed / vib.omega + 1e-12 * self.box[k]
+        with_it = np.abs(state.velocity[:, k] - u) <= speed
         return (riding & on & with_it).astype(float)
 
     def _spins(self, state: State, order: np.ndarray):
