@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from edmd.run.neighbours import cell_cost, cell_edge, mean_free_path
+from edmd.run.neighbours import cell_cost, cell_edge, local_densities, mean_free_path
 
 
 def test_mean_free_path_has_the_boltzmann_dilute_limit(dim):
@@ -32,3 +32,39 @@ def test_cell_edge_minimises_the_cost_and_is_at_least_the_contact_distance(dim, 
 def test_cells_widen_as_the_density_falls(dim):
     edges = [cell_edge(n, 1.0, 1.0, dim) for n in (0.5, 0.1, 0.02, 0.004)]
     assert edges == sorted(edges) and edges[-1] > 3.0
+
+
+def test_a_stratified_system_is_sized_by_its_dense_part(dim):
+    # 90 % of the particles in a dense layer, 10 % spread above: the work per unit time is the
+    # dense layer's (its collisions are far more frequent), and the edge is its own
+    dense, dilute = (0.5, 0.005) if dim == 3 else (0.6, 0.006)
+    edge = cell_edge([dense, dilute], 1.0, 1.0, dim, weights=[0.9, 0.1])
+    assert edge == pytest.approx(cell_edge(dense, 1.0, 1.0, dim), rel=0.05)
+    assert edge < 0.5 * cell_edge(0.9 * dense + 0.1 * dilute / 100, 1.0, 1.0, dim) or edge == 1.0
+    # one region: the homogeneous model, whatever its weight
+    assert cell_edge([0.02], 1.0, 1.0, dim, weights=[7.0]) == cell_edge(0.02, 1.0, 1.0, dim)
+
+
+def test_local_densities_count_every_particle_once(dim, rng):
+    box = np.array([20.0, 30.0, 25.0][:dim])
+    pos = rng.uniform(-0.5, 0.5, (3000, dim)) * box
+    pos[:2000, -1] = -0.5 * box[-1] + rng.uniform(0.0, 3.0, 2000)  # two thirds in a slab of height 3
+    density, weights = local_densities(pos, box, 1.0)
+    assert weights.sum() == 3000 and np.all(density > 0)
+    mean = 3000 / np.prod(box)
+    assert np.average(density, weights=weights) > 3 * mean  # most particles are in the slab
+
+
+def test_a_bed_under_gravity_gets_cells_of_its_dense_layers():
+    # a 2D bed settled on the floor (random start, then lowered into ten layers): the engine sizes
+    # its cells at load by the local densities, not by the box's mean density
+    import edmd
+
+    state = edmd.random_packing(2000, 0.05, dim=2, seed=1, periodic=[True, False], aspect=[1.0, 2.0])
+    settled = state.position.copy()
+    settled[:, 1] = -0.5 * state.box[1] + 0.55 + (settled[:, 1] + 0.5 * state.box[1]) * 0.06  # squeezed down ~17x
+    bed = edmd.State(settled, state.velocity, state.radius, state.mass, box=state.box, periodic=state.periodic, check_overlaps=False)
+    free = edmd.Simulation(bed, engine={"neighbours": "cells"})
+    heavy = edmd.Simulation(bed, gravity=[0.0, -1.0], engine={"neighbours": "cells"})
+    edge = lambda sim: sim.engine.box[0] / sim.engine.grid_cells[0]  # noqa: E731
+    assert edge(heavy) < 0.6 * edge(free) and edge(heavy) < 1.3

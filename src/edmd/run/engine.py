@@ -31,7 +31,7 @@ from .._core.wells import capture_by_distance, captured_pairs, load_captured, we
 from ..physics import collide
 from ..physics.emdstar import EMDStar, emd_bundle
 from .memory import grid_shape
-from .neighbours import cell_edge
+from .neighbours import cell_edge, local_densities
 from ..state import State, StateError, default_inertia, filled, rescale_temperature
 
 #: ``INFO`` when a run must compile its loop variant first (the CLI shows it)
@@ -194,9 +194,7 @@ class Engine:
             what = "square wells" if self.well is not None else "growing particles"
             raise StateError(f"{what} need neighbours='list' (or 'auto'): their pair events are predicted over neighbour lists")
         reach = list_reach(self.fp)
-        sigma_max = 2.0 * float(state.radius.max()) * reach  # the largest interaction range
-        periodic_len = self.box[: self.dim][self.periodic]
-        periodic3 = np.r_[self.periodic, [False] * (3 - self.dim)]
+        sigma_max, periodic_len, periodic3 = self._grid_ranges(state)
         if mode == "cells":
             short = periodic_len[periodic_len < 4.0 * sigma_max]
             cells = None if short.size else self._cell_grid(state, sigma_max, periodic_len, periodic3)
@@ -230,15 +228,24 @@ class Engine:
             ball = (4.0 / 3.0 * math.pi * reach**3) if self.dim == 3 else (math.pi * reach**2)
             self.list_capacity = max(self.list_capacity, int(1.6 * n_density * ball) + 8)
 
+    def _grid_ranges(self, state: State):
+        """The largest interaction range, the periodic box lengths and the periodic flags of 3 axes."""
+        sigma_max = 2.0 * float(state.radius.max()) * list_reach(self.fp)
+        return sigma_max, self.box[: self.dim][self.periodic], np.r_[self.periodic, [False] * (3 - self.dim)]
+
     def _cell_grid(self, state: State, sigma_max: float, periodic_len, periodic3):
         """Cells per axis of cells mode: the edge of ``cell_size`` or of the cost model
         (:func:`.neighbours.cell_edge`), at most a quarter of the shortest periodic length; ``None``
         when the memory cap leaves fewer than 4 cells on a periodic axis."""
         opt = self.options
+        sigma_mean = 2.0 * float(state.radius.mean())
         if opt.cell_size is not None:
             edge = opt.cell_size * sigma_max
+        elif np.any(self.grav != 0.0):  # a bed under gravity: its dense layers set the cells (at every load)
+            density, weights = local_densities(state.position, self.box[: self.dim], sigma_mean)
+            edge = cell_edge(density, sigma_mean, sigma_max, self.dim, weights)
         else:
-            edge = cell_edge(state.n / state.volume, 2.0 * float(state.radius.mean()), sigma_max, self.dim)
+            edge = cell_edge(state.n / state.volume, sigma_mean, sigma_max, self.dim)
         if periodic_len.size:  # >= 4 cells on a periodic axis: a pair of cells is then adjacent through one image only
             edge = max(sigma_max, min(edge, float(periodic_len.min()) / 4.0))
         cells = grid_shape(self.box, periodic3, edge, self.n)
@@ -359,6 +366,10 @@ class Engine:
         if self.growth is not None:
             self._start_segment()
             self._choose_neighbours(state)  # (the radii have grown: cells of the list grid, skin, capacity)
+        elif self.mode == "cells" and self.options.cell_size is None and np.any(self.grav != 0.0):
+            cells = self._cell_grid(state, *self._grid_ranges(state))  # (a bed settles or lifts: the cells follow its density)
+            if cells is not None:
+                self.grid_cells = cells
         n = self.n
         order = self._spatial_order(state)
         pending = self._pending_arrays(state, order)
