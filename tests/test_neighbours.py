@@ -68,3 +68,11 @@ def test_a_bed_under_gravity_gets_cells_of_its_dense_layers():
     heavy = edmd.Simulation(bed, gravity=[0.0, -1.0], engine={"neighbours": "cells"})
     edge = lambda sim: sim.engine.box[0] / sim.engine.grid_cells[0]  # noqa: E731
     assert edge(heavy) < 0.6 * edge(free) and edge(heavy) < 1.3
+
+
+def test_crowded_small_particles_do_not_blow_up_the_cells(dim):
+    # a layer of small spheres counted at the mean diameter exceeds close packing: the cells
+    # stay at the dense layers' size (a negative free path once picked the widest cells)
+    n_close = (0.6 / (math.pi / 6.0)) if dim == 3 else (0.8 / (math.pi / 4.0))
+    edge = cell_edge([0.01, 2.0 * n_close], 1.0, 1.0, dim, weights=[10, 1000])
+    assert edge == pytest.approx(cell_edge(n_close, 1.0, 1.0, dim), rel=0.05) and edge < 2.0

@@ -315,3 +315,29 @@ def test_restart_in_the_middle_of_rides_is_bit_for_bit(tmp_path):
     r = runner.invoke(app, ["run", "--restart", str(tmp_path / "x"), "--until-time", "12.0"])
     assert r.exit_code == 0, r.output
     assert_same_files(tmp_path / "ref", tmp_path / "x", traj="trajectory.gsd")
+
+
+@pytest.mark.parametrize("x0", np.linspace(0.40, 0.44, 6))
+def test_a_rider_bouncing_off_a_side_wall_rides_on(x0):
+    # a smooth side wall ends the ride without a kick along the axis: the ball is still on the
+    # pressing floor, moving with it, and rides on (it used to wait for a bounce that never came)
+    floor = VibratingWall(amplitude=0.01, omega=15.0, phase=-0.5 * math.pi)
+    state = edmd.State([[x0, 0.0, -0.45]], [[1.0, 0.0, 0.0]], [0.05], [1.0], box=[1.0, 1.0, 1.0], periodic=[False, True, False], riding=[True])
+    sim = edmd.Simulation(state, walls=edmd.collide.Wall(e_n=0.5), gravity=[0.0, 0.0, -1.0], vibration=floor)
+    before = sim.state.kinetic_energy() + sim.state.potential_energy([0.0, 0.0, -1.0])
+    sim.run(until_time=3.0)
+    t = sim.totals()
+    bounces = math.log2(1.0 / abs(sim.state.velocity[0, 0]))  # the side walls' e_n = 0.5 (smooth: only vx changes)
+    assert t.wall_collisions >= 3 and bounces >= 1 and bounces == round(bounces)
+    after = sim.state.kinetic_energy() + sim.state.potential_energy([0.0, 0.0, -1.0])
+    assert abs(t.energy_input - t.dissipated - (after - before)) < 1e-12 * max(abs(t.energy_input), 1e-3)
+
+
+@pytest.mark.parametrize("x0", np.linspace(0.10, 0.14, 4))
+def test_two_riders_colliding_head_on_ride_on(x0):
+    floor = VibratingWall(amplitude=0.01, omega=15.0, phase=-0.5 * math.pi)
+    state = edmd.State([[-x0, 0.0, -0.45], [x0, 0.0, -0.45]], [[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]], [0.05, 0.05], [1.0, 1.0],
+                       box=[1.0, 1.0, 1.0], periodic=[True, True, False], riding=[True, True])  # fmt: skip
+    sim = edmd.Simulation(state, collision=edmd.collide.Inelastic(0.9), walls=edmd.collide.Wall(e_n=0.5), gravity=[0.0, 0.0, -1.0], vibration=floor)
+    sim.run(until_time=0.3)
+    assert sim.collisions >= 1 and np.allclose(np.abs(sim.state.velocity[:, 0]), 0.9 ** sim.collisions)

@@ -29,7 +29,7 @@ from .contact import MODEL_HERTZ, contact_scales
 from .jit import hot, leaf
 from .predict import wrap3
 from .twobody import dashpot_central
-from .wallmotion import sticks, wall_velocity
+from .wallmotion import start_ride, sticks, wall_velocity
 
 
 @leaf
@@ -215,6 +215,16 @@ def collide_wall(t, P, mass, omega, inertia, tlast, i, axis, face, geo, fp, ip, 
     gx, gy, gz = P[i, L.VX], P[i, L.VY], P[i, L.VZ]
     gn = gx * nx + gy * ny + gz * nz - uw * sign
     if gn >= 0.0:
+        if sticks(P, axis, face, t, gn, geo):  # resting on the pressing wall (a ride ended without a kick along
+            # its axis): it rides again, its slow leaving speed taken away in the wall's frame
+            mi = mass[i]
+            jk = mi * (uw - P[i, L.VX + axis])
+            acc[L.A_KE] += 0.5 * mi * (uw * uw - P[i, L.VX + axis] ** 2)
+            acc[L.A_DISSIPATED] += 0.5 * mi * gn * gn
+            acc[L.A_ENERGY_INPUT] += uw * jk
+            acc[L.A_PX + axis] += jk
+            acc[L.A_WALL + 2 * axis + face] += jk * sign
+            start_ride(P, i, axis, uw, mass, acc)
         return 0.0, 0.0
     tangent = ip[L.IP_WALL_TANGENT]
     spin = tangent != TANGENT_SMOOTH
@@ -245,9 +255,7 @@ def collide_wall(t, P, mass, omega, inertia, tlast, i, axis, face, geo, fp, ip, 
         P[i, L.VX + axis] += uw
         acc[L.A_ENERGY_INPUT] += uw * (jx * nx + jy * ny + jz * nz) * sign
     if stick:
-        P[i, L.VX + axis] = uw
-        P[i, L.RIDE] = 1.0
-        acc[L.A_RIDE_MASS] += mi
+        start_ride(P, i, axis, uw, mass, acc)
     acc[L.A_KE] += _energy(P, mass, omega, inertia, i, False) - k0
     acc[L.A_DISSIPATED] += e0 - e1
     acc[L.A_PX] += jx

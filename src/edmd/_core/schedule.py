@@ -208,7 +208,9 @@ def ride_events(i, t, P, ev, grid, lists, geo, mode, skin):
         h = 0.5 * skin / SQRT3
         dd = wrap3(xs[0] - centre[i, 0], xs[1] - centre[i, 1], xs[2] - centre[i, 2], geo)
         for m in range(3):
-            if m == k:
+            if abs(dd[m]) >= h:  # outside the cube (it stuck where a ball without gravity let it be): rebuild now
+                tm = 0.0
+            elif m == k:
                 tm = min(level_time(sign * (centre[i, m] + h - base), t, geo), level_time(sign * (centre[i, m] - h - base), t, geo))
             else:
                 tm = min(gap_time(h - dd[m], -xs[3 + m], -geo[L.G_GX + m]), gap_time(h + dd[m], xs[3 + m], geo[L.G_GX + m]))

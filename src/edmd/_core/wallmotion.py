@@ -194,14 +194,15 @@ def rider_axis(t, r, geo):
 @leaf
 def _ride_piece(t, geo):
     """The displacement and velocity of the vibrating wall at the end of the motion a rider
-    follows up to local time ``t``: the wall's own at ``t`` on the sine, and the left limit at a
-    corner of a linear wave (the end of the piece just ridden, whose end :func:`ride_end` puts
-    just past the corner)."""
+    follows up to local time ``t``: the wall's own at ``t``, but the left limit just past a corner
+    of a linear wave (the end of the piece just ridden, which :func:`ride_end` puts there)."""
     _k, _face, wave, a, om, phase = wall_params(geo)
     wave = int(wave)
-    if wave == WAVE_SINE:
+    theta = phase + om * t
+    done = (math.pi if wave == WAVE_TRIANGLE else TWO_PI) - _piece_left(wave, theta)
+    if wave == WAVE_SINE or done > 1e-6:
         return wall_shift(t, geo)
-    _w, dw = _linear_wave(wave, _cycle(wave, phase + om * t - 0.5))  # (pieces are at least pi long)
+    _w, dw = _linear_wave(wave, _cycle(wave, theta - 0.5))  # (pieces are at least pi long)
     return a * (2.0 if dw > 0.0 else 0.0), a * om * dw
 
 
@@ -217,14 +218,14 @@ def vibrating_type(geo):
 
 @leaf
 def _release(P, i, mass, acc):
-    if P[i, RIDE] != 0.0:
+    if P.shape[1] > ROW and P[i, RIDE] != 0.0:
         P[i, RIDE] = 0.0
         acc[A_RIDE_MASS] -= mass[i]
 
 
 def release(P, i, mass, acc, geo):
     """End the ride of ``i`` (streamed to now) if it rides: it flies on from where it is."""
-    if has_wall(geo) and P.shape[1] > ROW:
+    if has_wall(geo):
         _release(P, i, mass, acc)
 
 
@@ -285,6 +286,14 @@ def _ride_flight_hook(P, i, t, geo, x, y, z, vx, vy, vz):
     if vibrating_type(geo):
         return lambda P, i, t, geo, x, y, z, vx, vy, vz: _ride_flight(P, i, t, geo, x, y, z, vx, vy, vz)
     return lambda P, i, t, geo, x, y, z, vx, vy, vz: (x, y, z, vx, vy, vz)
+
+
+@leaf
+def start_ride(P, i, axis, uw, mass, acc):
+    """``i``, at the vibrating wall, rides on it from now: its velocity along the axis is the wall's ``uw``."""
+    P[i, VX + axis] = uw
+    P[i, RIDE] = 1.0
+    acc[A_RIDE_MASS] += mass[i]
 
 
 @leaf

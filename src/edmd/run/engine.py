@@ -24,6 +24,7 @@ from .._core.bundles import Drive, Lists, Particles, new_events, new_pairs
 from .._core.cells import GI_WORK, new_grid
 from .._core.jit import in_disk_cache
 from .._core.loop import GEO_ARG, integrate_kinetic, loop_variant
+from .._core.wallmotion import rider_axis
 from .._core.queue import QI_MOVED, calendar_shape, new_queue, queue_build
 from .._core.snapshot import stream_all
 from .._core.nblist import list_reach
@@ -389,6 +390,8 @@ class Engine:
             riding = self._riders(state)[order]
             P[:, L.RIDE] = riding
             self.acc[L.A_RIDE_MASS] = float(state.mass[order] @ riding)
+            for i in np.flatnonzero(riding):  # (on the wall exactly: the energies booked are those the core moves)
+                k, P[i, k], P[i, 3 + k] = rider_axis(0.0, P[i, L.R], self.geo)
         image = np.zeros((n, 3), np.int32)
         for k in range(self.dim):
             image[:, k] = state.image[order, k]

@@ -84,6 +84,10 @@ def cell_edge(number_density, sigma_mean: float, sigma_max: float, dim: int, wei
     weights = np.ones(densities.size) if weights is None else np.asarray(weights, float)
     keep = densities > 0.0
     densities, weights = densities[keep], weights[keep]
+    # (crowded regions of small particles can exceed close packing at the mean diameter: their
+    # free path is taken at a packing fraction of 0.6 (3D) or 0.8 (2D))
+    unit = math.pi / 6.0 * sigma_mean**3 if dim == 3 else math.pi / 4.0 * sigma_mean**2
+    densities = np.minimum(densities, (0.6 if dim == 3 else 0.8) / unit)
     if densities.size == 0:
         return sigma_max
     paths = np.array([mean_free_path(float(v), sigma_mean, dim) for v in densities])
