@@ -260,16 +260,22 @@ def _take_off_hook(P, i, t, mass, acc, geo):
     return lambda P, i, t, mass, acc, geo: None
 
 
+@jit
+def _rider_flight(P, i, t, geo, x, y, z, vx, vy, vz):
+    k, xk, vk = rider_axis(t, P[i, R], geo)
+    if k == 0:
+        x, vx = xk, vk
+    elif k == 1:
+        y, vy = xk, vk
+    else:
+        z, vz = xk, vk
+    return x, y, z, vx, vy, vz
+
+
 @leaf
 def _ride_flight(P, i, t, geo, x, y, z, vx, vy, vz):
-    if P.shape[1] > ROW and P[i, RIDE] != 0.0:
-        k, xk, vk = rider_axis(t, P[i, R], geo)
-        if k == 0:
-            x, vx = xk, vk
-        elif k == 1:
-            y, vy = xk, vk
-        else:
-            z, vz = xk, vk
+    if P.shape[1] > ROW and P[i, RIDE] != 0.0:  # (called, not inlined: flight is inlined everywhere)
+        return _rider_flight(P, i, t, geo, x, y, z, vx, vy, vz)
     return x, y, z, vx, vy, vz
 
 

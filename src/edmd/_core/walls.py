@@ -273,15 +273,20 @@ def ride_contact_time(xf, yf, zf, vxf, vyf, vzf, rf, P, q, t, geo):
     return s
 
 
+@jit
+def _rider_pair_dt(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, ride_i):
+    if not ride_i:
+        return ride_contact_time(xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo)
+    xj, yj, zj, vxj, vyj, vzj = flight(P, j, t, geo)
+    return ride_contact_time(xj, yj, zj, vxj, vyj, vzj, P[j, R], P, i, t, geo)
+
+
 @leaf
 def _ride_pair_dt(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, dt):
     ride_i = P.shape[1] > ROW and P[i, RIDE] != 0.0
     if ride_i == (P.shape[1] > ROW and P[j, RIDE] != 0.0):
         return dt  # (two riders move alike along the wall's axis: a straight relative flight)
-    if not ride_i:
-        return ride_contact_time(xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo)
-    xj, yj, zj, vxj, vyj, vzj = flight(P, j, t, geo)
-    return ride_contact_time(xj, yj, zj, vxj, vyj, vzj, P[j, R], P, i, t, geo)
+    return _rider_pair_dt(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, ride_i)
 
 
 def ride_pair_dt(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, dt):
