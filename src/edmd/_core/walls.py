@@ -255,16 +255,18 @@ def ride_contact_time(xf, yf, zf, vxf, vyf, vzf, rf, P, q, t, geo):
         if f <= 0.0:
             if f1 < 0.0:
                 return s  # touching and approaching
-            step = max(f1 / big if big > 0.0 else h, 16.0 * res)  # f' >= 0 for this long: no closing root
+            step = max(f1 / big if big > 0.0 else INF, 16.0 * res)  # f' >= 0 for this long: no closing root
         else:
             if big > 0.0:
                 root = math.sqrt(f1 * f1 + 2.0 * big * f)
                 step = 2.0 * f / (root - f1) if f1 < 0.0 else (f1 + root) / big
             else:  # convex over the window: the tangent bounds f from below
-                step = f / -f1 if f1 < 0.0 else h
-            if step <= res:
-                return s + step  # converged on the root from the safe side
-        if step >= h:
+                step = f / -f1 if f1 < 0.0 else INF
+            if f1 < 0.0 and step <= res:
+                return s + step  # converged on the closing root from the safe side
+        if step >= h:  # no closing root in the window
+            if h >= end - s:
+                return INF  # (the window reached the end: none before it)
             step = h
             window = 2.0 * h
         else:
