@@ -132,7 +132,6 @@ class Engine:
             raise StateError("white-noise forcing and eMD* cannot be combined: a kick would break a pending soft contact")
         if vibration is not None:
             self._check_vibration(state, vibration)
-        self.well = well
         if well is not None:
             if self.emd_rule is not None:
                 raise StateError("square wells and eMD* cannot be combined: eMD*'s soft contacts have no well")
