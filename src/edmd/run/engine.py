@@ -384,13 +384,7 @@ class Engine:
             P[:, k] = state.position[order, k]
             P[:, 3 + k] = state.velocity[order, k]
         P[:, L.R] = state.radius[order]
-        self.acc[L.A_RIDE_MASS] = 0.0
-        if self.vibration is not None:
-            riding = self._riders(state)[order]
-            P[:, L.RIDE] = riding
-            self.acc[L.A_RIDE_MASS] = float(state.mass[order] @ riding)
-            for i in np.flatnonzero(riding):  # (on the wall exactly: the energies booked are those the core moves)
-                k, P[i, k], P[i, 3 + k] = rider_axis(0.0, P[i, L.R], self.geo)
+        self.acc[L.A_RIDE_MASS] = self._load_riders(state, order, P) if self.vibration is not None else 0.0
         image = np.zeros((n, 3), np.int32)
         for k in range(self.dim):
             image[:, k] = state.image[order, k]
@@ -406,21 +400,23 @@ class Engine:
         if new and self.well is not None and not self._derive_captures:
             self._check_captured(state)
 
-    def _riders(self, state: State) -> np.ndarray:
-        """The particles of ``state`` (user order) that go on riding on the vibrating wall: those
-        marked ``riding`` that are on it and move with it, to within what the stick speed allows
-        (and the round-off of the wall's phase at late times). Any other (the wall does not let
-        particles stick, an updater changed the velocity) flies on from where it is."""
-        riding = np.asarray(state.riding, bool)
-        vib, speed = self.vibration, self.geo[L.G_WALL_STICK]
-        if not riding.any() or speed == 0.0:
-            return np.zeros(self.n)
-        k, t = vib.axis_index, float(state.time)
-        sign = 1.0 if vib.side == "lower" else -1.0
-        plane, u = vib.plane(t, float(self.box[k])), sign * vib.velocity(t)
-        on = np.abs(state.position[:, k] - plane - sign * state.radius) <= speed / vib.omega + 1e-12 * self.box[k]
-        with_it = np.abs(state.velocity[:, k] - u) <= speed
-        return (riding & on & with_it).astype(float)
+    def _load_riders(self, state: State, order: np.ndarray, P: np.ndarray) -> float:
+        """Mark in ``P`` (internal order) the particles of ``state`` that go on riding on the
+        vibrating wall, and return their total mass: those marked ``riding`` that are on it and
+        move with it, to within what the stick speed allows (and the round-off of the re-based
+        phase), put exactly on it (the energies booked are then those the core moves). Any other
+        (the wall does not let particles stick, an updater changed the velocity) flies on."""
+        speed = self.geo[L.G_WALL_STICK]
+        if speed == 0.0:
+            return 0.0
+        mass = 0.0
+        for p in np.flatnonzero(np.asarray(state.riding, bool)[order]):
+            i = order[p]
+            k, x, v = rider_axis(0.0, P[p, L.R], self.geo)  # (the core's own rider at local time 0)
+            if abs(state.position[i, k] - x) <= speed / self.vibration.omega + 1e-12 * self.box[k] and abs(state.velocity[i, k] - v) <= speed:
+                P[p, L.RIDE], P[p, k], P[p, 3 + k] = 1.0, x, v
+                mass += float(state.mass[i])
+        return mass
 
     def _spins(self, state: State, order: np.ndarray):
         """Spins and moments of inertia in internal order, or arrays of size 0 when nothing turns:
