@@ -25,7 +25,7 @@ from .jit import hot, jit
 from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTACT_GROWN, CONTACT_SOFT, CONTACT_WELL, NB_LIST, NORMAL_SOFT, TANGENT_SMOOTH
 from .nblist import build_lists, list_reach, rebuild_list
 from .predict import advance, separation
-from .wallmotion import has_wall, integrate_riding, release, take_off
+from .wallmotion import free_fall, has_wall, integrate_riding, release, take_off
 from .queue import queue_top, queue_update
 from .schedule import cross_cell, predict_aux, predict_pair, repredict, requeue, wrap_into_box
 from .growth import collide_growing
@@ -84,13 +84,7 @@ def integrate_kinetic(acc, t, geo, total_mass):
     """
     if integrate_riding(acc, t, geo, total_mass):
         return
-    tau = t - acc[L.A_LAST_T]
-    gp = geo[L.G_GX] * acc[L.A_PX] + geo[L.G_GY] * acc[L.A_PY] + geo[L.G_GZ] * acc[L.A_PZ]
-    mg2 = total_mass * (geo[L.G_GX] ** 2 + geo[L.G_GY] ** 2 + geo[L.G_GZ] ** 2)
-    acc[L.A_KE_INT] += acc[L.A_KE] * tau + 0.5 * gp * tau * tau + mg2 * tau * tau * tau / 6.0
-    acc[L.A_KE] += gp * tau + 0.5 * mg2 * tau * tau
-    for k in range(3):
-        acc[L.A_PX + k] += total_mass * geo[L.G_GX + k] * tau
+    free_fall(acc, t - acc[L.A_LAST_T], geo, total_mass, 0, 0.0)
     acc[L.A_LAST_T] = t
 
 

@@ -322,6 +322,24 @@ def _sticks_hook(P, axis, face, t, rebound, geo):
     return lambda P, axis, face, t, rebound, geo: False
 
 
+@leaf
+def free_fall(acc, tau, geo, total_mass, k, held):
+    r"""Advance the kinetic energy, its time integral and the momentum over ``tau`` in free fall
+    under gravity, all of the mass but ``held`` along axis ``k`` (the riders' axial motion, taken
+    out by :func:`_integrate_riding`; 0 for the event loop's :func:`.loop.integrate_kinetic`):
+
+    .. math::
+        E(\tau) = E_0 + \mathbf G\cdot\mathbf P_0\,\tau + \tfrac12 (M G^2 - M_h G_k^2)\tau^2,\qquad
+        P_m(\tau) = P_{m,0} + (M - M_h\delta_{mk}) G_m\tau.
+    """
+    gp = geo[G_GX] * acc[A_PX] + geo[G_GY] * acc[A_PY] + geo[G_GZ] * acc[A_PZ]
+    mg2 = total_mass * (geo[G_GX] ** 2 + geo[G_GY] ** 2 + geo[G_GZ] ** 2) - held * geo[G_GX + k] ** 2
+    acc[A_KE_INT] += acc[A_KE] * tau + 0.5 * gp * tau * tau + mg2 * tau * tau * tau / 6.0
+    acc[A_KE] += gp * tau + 0.5 * mg2 * tau * tau
+    for m in range(3):
+        acc[A_PX + m] += (total_mass - (held if m == k else 0.0)) * geo[G_GX + m] * tau
+
+
 @jit
 def _integrate_riding(acc, t, geo, total_mass):
     r""":func:`.loop.integrate_kinetic` with particles of total mass :math:`M_r` riding on the vibrating
@@ -350,14 +368,11 @@ def _integrate_riding(acc, t, geo, total_mass):
         u2_int = u0 * u0 * tau
     acc[A_PX + k] -= mr * u0
     acc[A_KE] -= 0.5 * mr * u0 * u0
-    gk = geo[G_GX + k]
-    gp = geo[G_GX] * acc[A_PX] + geo[G_GY] * acc[A_PY] + geo[G_GZ] * acc[A_PZ]
-    mg2 = total_mass * (geo[G_GX] ** 2 + geo[G_GY] ** 2 + geo[G_GZ] ** 2) - mr * gk * gk
-    acc[A_KE_INT] += acc[A_KE] * tau + 0.5 * gp * tau * tau + mg2 * tau * tau * tau / 6.0 + 0.5 * mr * u2_int
-    acc[A_KE] += gp * tau + 0.5 * mg2 * tau * tau + 0.5 * mr * u1 * u1
-    for m in range(3):
-        acc[A_PX + m] += (total_mass - (mr if m == k else 0.0)) * geo[G_GX + m] * tau
+    free_fall(acc, tau, geo, total_mass, k, mr)
+    acc[A_KE_INT] += 0.5 * mr * u2_int
+    acc[A_KE] += 0.5 * mr * u1 * u1
     acc[A_PX + k] += mr * u1
+    gk = geo[G_GX + k]
     acc[A_ENERGY_INPUT] += mr * (0.5 * (u1 * u1 - u0 * u0) - gk * (x1 - x0))
     acc[A_WALL + 2 * k + int(face)] += sign * mr * (u1 - u0 - gk * tau)
     acc[A_LAST_T] = t
