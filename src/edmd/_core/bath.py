@@ -27,6 +27,7 @@ import numpy as np
 from . import layout as L
 from .jit import jit, leaf
 from .rng import normal_pair, stream, uniform
+from .stress import book_velocity_change
 
 #: the ``count`` of the key of the clock draws at a load (event counters are int32, never this)
 SCHEDULE = np.uint64(1 << 40)
@@ -60,6 +61,7 @@ def bath_event(i, t, P, mass, omega, inertia, count, drive, fp, acc, rough):
     s = math.sqrt(kT / mass[i])
     g = normal_pair(z, 1) + normal_pair(z, 3) + normal_pair(z, 5)
     de = 0.0
+    v0 = (P[i, L.VX], P[i, L.VY], P[i, L.VZ])
     for k in range(3):
         old = P[i, L.VX + k]
         new = s * g[k] if drive.axes[0, k] else 0.0
@@ -67,6 +69,7 @@ def bath_event(i, t, P, mass, omega, inertia, count, drive, fp, acc, rough):
         acc[L.A_PX + k] += mass[i] * (new - old)
         P[i, L.VX + k] = new
     acc[L.A_KE] += de
+    book_velocity_change(acc, mass[i], v0[0], v0[1], v0[2], P[i, L.VX], P[i, L.VY], P[i, L.VZ])
     if rough:
         w = math.sqrt(kT / inertia[i])
         for k in range(3):

@@ -28,6 +28,7 @@ from .layout import NORMAL_CONST, TANGENT_COULOMB, TANGENT_SMOOTH
 from .contact import MODEL_HERTZ, contact_scales
 from .jit import hot, leaf
 from .predict import wrap3
+from .stress import impulse_tensor, virial_tensor
 from .twobody import dashpot_central
 from .wallmotion import start_ride, sticks, wall_velocity
 
@@ -100,6 +101,20 @@ def impulse(nx, ny, nz, gx, gy, gz, wx, wy, wz, inv_mu, inv_mt, e, beta, mu_c, t
         b = min(beta, -1.0 + mu_c * (1.0 + e) * (inv_mt / inv_mu) * (-gn) / vt)
     k = -(1.0 + b) / inv_mt
     return jn * nx + k * tx, jn * ny + k * ty, jn * nz + k * tz, -gn, vt
+
+
+@leaf
+def pair_impulse(P, mass, i, j, jn, nx, ny, nz, r, acc):
+    r"""Apply the normal impulse :math:`J_n\hat{\mathbf n}` to ``i`` and its opposite to ``j`` (smooth
+    particles at distance ``r``) and add it to the virial and the stress tensor (:mod:`.stress`)."""
+    mi, mj = mass[i], mass[j]
+    gx, gy, gz = P[i, L.VX] - P[j, L.VX], P[i, L.VY] - P[j, L.VY], P[i, L.VZ] - P[j, L.VZ]
+    impulse_tensor(acc, 1.0 / mi + 1.0 / mj, gx, gy, gz, jn * nx, jn * ny, jn * nz)
+    virial_tensor(acc, r * nx, r * ny, r * nz, jn * nx, jn * ny, jn * nz)
+    acc[L.A_VIRIAL] += r * jn
+    for k, nk in ((0, nx), (1, ny), (2, nz)):
+        P[i, L.VX + k] += jn / mi * nk
+        P[j, L.VX + k] -= jn / mj * nk
 
 
 @leaf
@@ -182,6 +197,8 @@ def collide_pair(t, P, mass, omega, inertia, tlast, i, j, geo, fp, ip, etab, acc
         dk = -0.5 * (1.0 - e * e) * gn * gn / inv_mu
         lost = -dk
     acc[L.A_VIRIAL] += r * (jx * nx + jy * ny + jz * nz)
+    virial_tensor(acc, r * nx, r * ny, r * nz, jx, jy, jz)
+    impulse_tensor(acc, inv_mu, gx, gy, gz, jx, jy, jz)
     acc[L.A_KE] += dk
     acc[L.A_DISSIPATED] += lost
     if ip[L.IP_TC]:
@@ -213,6 +230,7 @@ def collide_wall(t, P, mass, omega, inertia, tlast, i, axis, face, geo, fp, ip, 
         nz = sign
     uw = wall_velocity(axis, face, t, geo) + sign * grow_speed
     gx, gy, gz = P[i, L.VX], P[i, L.VY], P[i, L.VZ]
+    vx, vy, vz = gx, gy, gz  # (lab frame)
     gn = gx * nx + gy * ny + gz * nz - uw * sign
     if gn >= 0.0:
         if sticks(P, axis, face, t, gn, geo):  # resting on the pressing wall (a ride ended without a kick along
@@ -257,6 +275,7 @@ def collide_wall(t, P, mass, omega, inertia, tlast, i, axis, face, geo, fp, ip, 
     if stick:
         start_ride(P, i, axis, uw, mass, acc)
     acc[L.A_KE] += _energy(P, mass, omega, inertia, i, False) - k0
+    impulse_tensor(acc, inv_mu, vx, vy, vz, jx, jy, jz)  # (a new rider's is not reported)
     acc[L.A_DISSIPATED] += e0 - e1
     acc[L.A_PX] += jx
     acc[L.A_PY] += jy

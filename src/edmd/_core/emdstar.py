@@ -36,6 +36,7 @@ from .lookup import matrix_of_restitution
 from .nblist import SQRT3, rebuild_list
 from .predict import INF, advance, box_shift, contact_time, flight, separation, wrap3
 from .schedule import repredict, set_pair, wrap_into_box
+from .stress import impulse_tensor, virial_tensor
 from .twobody import collision_frame, lab_frame_update
 from .twobody_friction import frictional_update
 from .wallmotion import wall_planes
@@ -290,8 +291,11 @@ def _make_emd_contact(frictional):
             cnt[L.C_EMD_EXC_A] += 1
             return CONTACT_INSTANT
         jn = 0.0  # virial r_ij . J with the impulse J on i over the whole contact
+        ji = (mass[i] * (work[6, 0] + work[7, 0] - P[i, L.VX]), mass[i] * (work[6, 1] + work[7, 1] - P[i, L.VY]), mass[i] * (work[6, 2] + work[7, 2] - P[i, L.VZ]))
+        virial_tensor(acc, work[0, 0] - work[1, 0], work[0, 1] - work[1, 1], work[0, 2] - work[1, 2], ji[0], ji[1], ji[2])
+        impulse_tensor(acc, 1.0 / mass[i] + 1.0 / mass[j], gx, gy, gz, ji[0], ji[1], ji[2])  # (committed velocities)
         for k in range(3):
-            jk = mass[i] * (work[6, k] + work[7, k] - P[i, L.VX + k])
+            jk = ji[k]
             jn += (work[0, k] - work[1, k]) * jk
             P[i, L.X + k] = work[4, k]
             P[j, L.X + k] += work[5, k] - work[1, k]  # (in j's own periodic frame)

@@ -31,6 +31,7 @@ from .jit import jit, leaf
 from .predict import advance
 from .wallmotion import release
 from .rng import normal_pair, stream
+from .stress import book_velocity_change
 
 #: the fourth part of the key of the kicks (bath draws use event counters and 2**40)
 KICK = np.uint64(1 << 41)
@@ -72,6 +73,7 @@ def white_noise_kick(t, P, mass, count, drive, fp, acc, cnt, geo):
         advance(P, p, t, geo)
         release(P, p, mass, acc, geo)  # (a rider on the vibrating wall flies on with its kick)
         g = _kick_normals(seed, tick, p)  # drawn again: a pure function of the key
+        v0 = (P[p, L.VX], P[p, L.VY], P[p, L.VZ])
         for k in range(3):
             if drive.axes[0, k]:
                 dv = s * (g[k] - mean[k])
@@ -79,6 +81,7 @@ def white_noise_kick(t, P, mass, count, drive, fp, acc, cnt, geo):
                 de += 0.5 * mass[p] * ((v + dv) * (v + dv) - v * v)
                 acc[L.A_PX + k] += mass[p] * dv
                 P[p, L.VX + k] = v + dv
+        book_velocity_change(acc, mass[p], v0[0], v0[1], v0[2], P[p, L.VX], P[p, L.VY], P[p, L.VZ])
         count[p] += 1
     acc[L.A_KE] += de
     acc[L.A_ENERGY_INPUT] += de

@@ -9,7 +9,7 @@ the load and grow at the local rate :math:`\gamma = g/(1 + g(t_{\rm load} - t_0)
 import math
 
 from . import layout as L
-from .collide import contact_normal
+from .collide import contact_normal, pair_impulse
 from .jit import hot, leaf
 from .predict import INF, relative_to
 
@@ -78,12 +78,9 @@ def collide_growing(P, mass, i, j, geo, fp, acc, rate):
     e = fp[L.FP_EN]
     new = ds - e * u
     jn = mu * (new - gn)
-    for k, nk in ((0, nx), (1, ny), (2, nz)):
-        P[i, L.VX + k] += jn / mi * nk
-        P[j, L.VX + k] -= jn / mj * nk
+    pair_impulse(P, mass, i, j, jn, nx, ny, nz, r, acc)
     dk = 0.5 * mu * (new * new - gn * gn)
     lost = 0.5 * mu * (1.0 - e * e) * u * u
-    acc[L.A_VIRIAL] += r * jn
     acc[L.A_KE] += dk
     acc[L.A_DISSIPATED] += lost
     acc[L.A_ENERGY_INPUT] += dk + lost

@@ -95,6 +95,11 @@ COUNTERS = (
 ) = range(len(COUNTERS))  # fmt: skip
 N_COUNTERS = len(COUNTERS)
 
+#: the symmetric tensor components of the stress accumulators, in their order
+TENSOR = ("xx", "yy", "zz", "xy", "xz", "yz")
+#: the axes ``(a, b)`` of each component of :data:`TENSOR`
+TENSOR_AXES = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
+
 #: float accumulators (``acc`` array)
 ACCUMULATORS = (
     "virial",  # sum of r_ij . J over collisions
@@ -114,6 +119,10 @@ ACCUMULATORS = (
     "segment_virial",  # growing radii: the virial and the kinetic-energy integral at the start of the current segment
     "segment_kinetic_integral",
     "ride_mass",  # total mass of the particles riding on the vibrating wall (set at each load)
+    # the stress tensor (stress.py), symmetric components in the order of TENSOR:
+    *(f"kinetic_{c}" for c in TENSOR),  # running sum_i m_i v_ia v_ib (committed velocities; set at each load)
+    *(f"kinetic_integral_{c}" for c in TENSOR),  # its time integral (local time, up to A_LAST_T)
+    *(f"virial_{c}" for c in TENSOR),  # sum over collisions of (r_ij (x) J + J (x) r_ij) / 2
 )
 (
     A_VIRIAL, A_DISSIPATED, A_KE, A_KE_INT, A_LAST_T, A_PX, A_PY, A_PZ, A_NOW, A_BAD, A_EMD_VN, A_EMD_VT,
@@ -122,6 +131,7 @@ A_WALL = 12  # A_WALL + 2 * axis + face: normal momentum given to each wall (fac
 A_ENERGY_INPUT = ACCUMULATORS.index("energy_input")
 A_SEG_VIRIAL, A_SEG_KE_INT = ACCUMULATORS.index("segment_virial"), ACCUMULATORS.index("segment_kinetic_integral")
 A_RIDE_MASS = ACCUMULATORS.index("ride_mass")
+A_KT, A_KT_INT, A_VT = (ACCUMULATORS.index(f"{name}_xx") for name in ("kinetic", "kinetic_integral", "virial"))
 N_ACC = len(ACCUMULATORS)
 
 #: integer parameters (``ip`` array)

@@ -22,7 +22,7 @@ import math
 import numpy as np
 
 from . import layout as L
-from .collide import contact_normal
+from .collide import contact_normal, pair_impulse
 from .jit import hot, jit, leaf
 from .predict import INF, contact_time, relative_to, separation
 
@@ -140,10 +140,7 @@ def well_event(i, j, kind, P, mass, pairs, geo, fp, acc, cnt):
         new = -abs(gn)
         cnt[L.C_WELL_BOUNCE] += 1
     jn = mu * (new - gn)
-    for k, nk in ((0, nx), (1, ny), (2, nz)):
-        P[i, L.VX + k] += jn / mi * nk
-        P[j, L.VX + k] -= jn / mj * nk
-    acc[L.A_VIRIAL] += r * jn
+    pair_impulse(P, mass, i, j, jn, nx, ny, nz, r, acc)
 
 
 @jit

@@ -10,6 +10,7 @@ import os
 import numpy as np
 
 from .atomic import write_atomic
+from .._core.layout import TENSOR_AXES
 from ..run.observer import Observer, Totals
 from ..run.simulation import Simulation
 from ..state import State
@@ -58,6 +59,36 @@ def pressure(state: State, d_kinetic_integral: float, d_virial: float, dt: float
     return (kin + d_virial / dt) / (state.dim * state.volume)
 
 
+def pressure_tensor(state: State, d_stress_integral: np.ndarray, dt: float) -> dict[str, float]:
+    r"""The pressure tensor over an interval from the increment of :attr:`Totals.stress_integral`.
+
+    physics.md §5.3 (:mod:`edmd._core.stress`):
+
+    .. math::
+        \mathsf P = \frac{1}{V}\Big[\frac{1}{t_{\rm obs}}\Big(\int \sum_i m_i\mathbf v_i\otimes\mathbf v_i\,dt
+            + \sum_{\rm coll}\tfrac12(\mathbf r_{ij}\otimes\mathbf J + \mathbf J\otimes\mathbf r_{ij})\Big)
+            - \frac{\mathbf P_{\rm tot}\otimes\mathbf P_{\rm tot}}{M}\Big],
+
+    the mean flow taken out as in :func:`pressure`, whose value is its trace over :math:`d`.
+    Returns ``{"pressure_xx": ..., ...}``: the components ``xx, yy, zz, xy, xz, yz`` (3D) or
+    ``xx, yy, xy`` (2D).
+
+    Example:
+        >>> import numpy as np, edmd
+        >>> s = edmd.maxwell_boltzmann(edmd.lattice(64, 0.01, dim=2), 1.0, seed=1)
+        >>> p = pressure_tensor(s, np.array([2.0, 4.0, 0.0, 1.0, 0.0, 0.0]) * s.volume, 2.0)
+        >>> {k: round(v, 9) for k, v in p.items()}
+        {'pressure_xx': 1.0, 'pressure_yy': 2.0, 'pressure_xy': 0.5}
+    """
+    p = state.momentum()
+    out = {}
+    for c, (a, b) in enumerate(TENSOR_AXES):
+        if a < state.dim and b < state.dim:
+            flow = float(p[a] * p[b]) / state.mass.sum()
+            out[f"pressure_{AXES[a]}{AXES[b]}"] = (float(d_stress_integral[c]) / dt - flow) / state.volume
+    return out
+
+
 class Thermo(Observer):
     """Thermodynamic table, one row per interval, optionally written to a CSV file.
 
@@ -68,7 +99,9 @@ class Thermo(Observer):
     and, averaged over the interval that ends there, the ``pressure`` (kinetic + collision
     virial, physics.md §5.3; meaningful in periodic directions), the ``collision_rate`` per
     particle :math:`2\\Delta N_{\\rm coll}/(N\\Delta t)` and, for every axis closed by walls,
-    ``wall_pressure_<axis>``: the mean normal force per area on its two walls. eMD* runs
+    ``wall_pressure_<axis>``: the mean normal force per area on its two walls, and the pressure
+    tensor ``pressure_<ab>`` (``xx, yy, zz, xy, xz, yz``; 2D ``xx, yy, xy``; :func:`pressure_tensor`,
+    whose trace over :math:`d` is ``pressure``; not in DEM runs or with a vibrating wall). eMD* runs
     (:class:`edmd.physics.emdstar.EMDStar`) add the cumulative counters ``emd_contacts`` (A events),
     ``emd_exceptions_a``, ``emd_exceptions_b`` and ``emd_fallbacks`` (physics.md §4.8); their
     energies and temperatures use committed velocities. Runs with a thermostat, forcing
@@ -93,6 +126,7 @@ class Thermo(Observer):
         self._file = None
         self._writer = None
         self._last: Totals | None = None
+        self._tensor: bool | None = None  # False: continuing a table without the pressure tensor
 
     def observe(self, sim: Simulation, state: State, totals: Totals):
         kinetic, rotational = state.kinetic_energy(), state.rotational_energy()
@@ -115,6 +149,9 @@ class Thermo(Observer):
         walls = np.flatnonzero(~state.periodic)
         for k in walls:
             row[f"wall_pressure_{AXES[k]}"] = math.nan
+        tensor = self._tensor is not False and totals.stress_integral is not None
+        if tensor:
+            row.update(dict.fromkeys(pressure_tensor(state, np.zeros(6), 1.0), math.nan))
         last = self._last
         if last is not None and totals.time > last.time:
             dt = totals.time - last.time
@@ -123,6 +160,8 @@ class Thermo(Observer):
             for k in walls:
                 area = state.volume / state.box[k]
                 row[f"wall_pressure_{AXES[k]}"] = float((totals.wall_impulse[k] - last.wall_impulse[k]).sum()) / (2.0 * area * dt)
+            if tensor and last.stress_integral is not None:
+                row.update(pressure_tensor(state, totals.stress_integral - last.stress_integral, dt))
         row.update(sim.emd_counters())
         if sim.has_energy_input:
             row["energy_input"] = totals.energy_input
@@ -164,10 +203,11 @@ class Thermo(Observer):
         super().restore_data(data)
         columns, ints = list(data["columns"]), set(data["integer_columns"])
         extra = columns[len(COLUMNS) :]
-        if columns[: len(COLUMNS)] != list(COLUMNS) or not all(c.startswith(("wall_pressure_", "emd_", "energy_input")) for c in extra):
-            raise ValueError(f"thermo columns {columns} differ from this version's {list(COLUMNS)} (+ wall pressures, eMD* counters, energy input)")
+        if columns[: len(COLUMNS)] != list(COLUMNS) or not all(c.startswith(("wall_pressure_", "pressure_", "emd_", "energy_input")) for c in extra):
+            raise ValueError(f"thermo columns {columns} differ from this version's {list(COLUMNS)} (+ wall pressures, pressure tensor, eMD* counters, energy input)")
         table = np.asarray(data.get("rows", np.zeros((0, len(columns)))), np.float64)
         self.rows = [{c: int(v) if c in ints else float(v) for c, v in zip(columns, r)} for r in table]
+        self._tensor = ("pressure_xx" in columns) if self.rows else None
         self._last = None if data["last"] is None else Totals.from_dict(data["last"])
         self.close()
         if self.path is not None:

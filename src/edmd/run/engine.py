@@ -573,6 +573,8 @@ class Engine:
             committed = committed + self.emd.pending_dv
         self.acc[L.A_KE] = 0.5 * float(self.part.mass @ np.einsum("ij,ij->i", committed, committed))
         self.acc[L.A_PX : L.A_PZ + 1] = np.einsum("i,ij->j", self.part.mass, committed)
+        tensor = np.einsum("i,ij,ik->jk", self.part.mass, committed, committed)  # (no N-sized temporary)
+        self.acc[L.A_KT : L.A_KT + 6] = [tensor[a, b] for a, b in L.TENSOR_AXES]
         self.events_at_sync = int(self.cnt[L.C_EVENTS])
 
     # ------------------------------------------------------------------ running
@@ -771,6 +773,13 @@ class Engine:
             "emd_exceptions_b": int(c[L.C_EMD_EXC_B]),
             "emd_fallbacks": int(c[L.C_EMD_FALLBACK]),
         }
+
+    @property
+    def keeps_stress(self) -> bool:
+        """Whether the accumulators hold the stress tensor (:mod:`edmd._core.stress`): every run
+        but those with a vibrating wall (whose riders move with it; a vibrated bed has no
+        homogeneous stress)."""
+        return self.vibration is None
 
     def accumulators_at(self, t: float) -> np.ndarray:
         """A copy of the accumulators (``layout.ACCUMULATORS``) carried on to absolute time ``t``

@@ -35,6 +35,9 @@ class Totals:
         wall_impulse: ``(d, 2)`` normal momentum taken by the lower and upper wall of each axis.
         wall_collisions: particle-wall collisions.
         energy_input: mechanical energy put in by updaters (:mod:`edmd.run.updaters`).
+        stress_integral: the six components (``xx, yy, zz, xy, xz, yz``) of
+            :math:`\int\sum_i m_i\mathbf v_i\otimes\mathbf v_i\,dt + \sum_{\rm coll}\tfrac12(\mathbf r_{ij}\otimes\mathbf J + \mathbf J\otimes\mathbf r_{ij})`
+            (physics.md §5.3), or ``None`` where the engine does not keep it (the DEM, a vibrating wall).
     """
 
     time: float
@@ -46,6 +49,7 @@ class Totals:
     wall_impulse: np.ndarray
     wall_collisions: int
     energy_input: float = 0.0
+    stress_integral: np.ndarray | None = None
 
     def __eq__(self, other):
         return isinstance(other, Totals) and self.to_dict() == other.to_dict()
@@ -54,12 +58,16 @@ class Totals:
         """JSON-ready (exact: floats survive JSON's repr round trip)."""
         out = dataclasses.asdict(self)
         out["wall_impulse"] = self.wall_impulse.tolist()
+        if self.stress_integral is not None:
+            out["stress_integral"] = self.stress_integral.tolist()
         return out
 
     @classmethod
     def from_dict(cls, data: dict) -> Totals:
         data = dict(data)
         data["wall_impulse"] = np.asarray(data["wall_impulse"], np.float64).reshape(-1, 2)
+        if data.get("stress_integral") is not None:
+            data["stress_integral"] = np.asarray(data["stress_integral"], np.float64)
         return cls(**data)
 
 

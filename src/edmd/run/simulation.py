@@ -164,6 +164,7 @@ class Simulation:
             wall_impulse=acc[L.A_WALL : L.A_WALL + 2 * e.dim].reshape(e.dim, 2).copy(),
             wall_collisions=int(e.cnt[L.C_WALL]),
             energy_input=float(acc[L.A_ENERGY_INPUT]),
+            stress_integral=acc[L.A_KT_INT : L.A_KT_INT + 6] + acc[L.A_VT : L.A_VT + 6] if e.keeps_stress else None,
         )
 
     @property
