@@ -36,7 +36,7 @@ class Totals:
         wall_collisions: particle-wall collisions.
         energy_input: mechanical energy put in by updaters (:mod:`edmd.run.updaters`).
         stress_integral: the six components (``xx, yy, zz, xy, xz, yz``) of
-            :math:`\int\sum_i m_i\mathbf v_i\otimes\mathbf v_i\,dt + \sum_{\rm coll}\tfrac12(\mathbf r_{ij}\otimes\mathbf J + \mathbf J\otimes\mathbf r_{ij})`
+            :math:`\\int\\sum_i m_i\\mathbf v_i\\otimes\\mathbf v_i\\,dt + \\sum_{\\rm coll}\\tfrac12(\\mathbf r_{ij}\\otimes\\mathbf J + \\mathbf J\\otimes\\mathbf r_{ij})`
             (physics.md §5.3), or ``None`` where the engine does not keep it (the DEM, a vibrating wall).
     """
 
