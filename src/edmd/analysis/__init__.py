@@ -20,6 +20,7 @@ from .packing import ContactNetwork, contact_pairs, rattlers
 from .steady import Profile, SteadyState, blocking_errors
 from .structure import RDF, pair_histogram
 from .thermal import AlgebraicCooling, HaffLaw, Pressure, Temperature, VelocityDistribution, sonine_a2
+from .transport import ShearViscosity, enskog_diffusion, enskog_viscosity
 
 __all__ = [
     "MSD",
@@ -31,6 +32,7 @@ __all__ = [
     "ImpactPhases",
     "Pressure",
     "Profile",
+    "ShearViscosity",
     "SteadyState",
     "Temperature",
     "VelocityDistribution",
@@ -38,6 +40,8 @@ __all__ = [
     "blocking_errors",
     "contact_value",
     "contact_pairs",
+    "enskog_diffusion",
+    "enskog_viscosity",
     "rattlers",
     "impact_angle_pdf",
     "impact_speed_pdf",

@@ -1,0 +1,84 @@
+"""Transport coefficients (``edmd.analysis.transport``): Enskog references and the Einstein–Helfand viscosity."""
+
+import math
+
+import numpy as np
+import pytest
+
+import edmd
+from edmd.analysis import ShearViscosity, enskog_diffusion, enskog_viscosity
+
+
+def test_enskog_values_reduce_to_the_dilute_gas():
+    """eta_E -> Chapman-Cowling's eta_0 (1.016 x 5/16 sqrt(m kT / pi) / sigma^2; Gass's 1.022 / (2 sigma) sqrt(m kT / pi)
+    for disks) and n D_E -> n D_0 as the density vanishes; both scale as sqrt(m kT)."""
+    eta = 1e-9
+    assert enskog_viscosity(eta, 3) == pytest.approx(1.016 * 5 / 16 / math.sqrt(math.pi), rel=1e-7)
+    assert enskog_viscosity(eta, 2) == pytest.approx(1.022 / 2 / math.sqrt(math.pi), rel=1e-7)
+    n3 = 6 * eta / math.pi
+    assert n3 * enskog_diffusion(eta, 3) == pytest.approx(1.019 * 3 / 8 / math.sqrt(math.pi), rel=1e-7)
+    assert enskog_viscosity(0.3, 3, sigma=2.0, mass=4.0, kT=9.0) == pytest.approx(enskog_viscosity(0.3, 3) * 6.0 / 4.0, rel=1e-12)
+    assert enskog_diffusion(0.3, 2, sigma=2.0, mass=4.0, kT=9.0) == pytest.approx(enskog_diffusion(0.3, 2) * 2.0 * 1.5, rel=1e-12)
+    with pytest.raises(ValueError, match="packing fraction"):
+        enskog_viscosity(1.2, 3)
+
+
+def _table(increments, dt, kT, volume):
+    """A thermo-like table whose xy pressure has the given Helfand increments."""
+    rows = increments.shape[0]
+    return {
+        "time": dt * np.arange(1, rows + 1),
+        "temperature": np.full(rows, kT),
+        "pressure": np.ones(rows),
+        "pressure_xy": increments[:, 0] / (volume * dt),
+        "pressure_xz": increments[:, 1] / (volume * dt),
+        "pressure_yz": increments[:, 2] / (volume * dt),
+    }
+
+
+def test_einstein_helfand_slope_of_a_random_walk():
+    """Independent increments of variance s^2 per interval: <dG^2> = m s^2 exactly in expectation, so
+    eta = s^2 / (2 V kT dt); 3 x 40000 samples give it to ~1 %, the blocks' error estimate agrees."""
+    rng = np.random.default_rng(1)
+    state = edmd.lattice(27, 0.1)
+    dt, kT, s = 0.1, 2.0, 3.0
+    table = _table(rng.normal(0.0, s, size=(40000, 3)), dt, kT, state.volume)
+    v = ShearViscosity(lag_max=1.0, blocks=10).compute(table, state)
+    expect = s * s / (2.0 * state.volume * kT * dt)
+    assert v.viscosity == pytest.approx(expect, rel=0.04)
+    assert abs(v.viscosity - expect) < 4 * v.error and v.error < 0.03 * expect
+    assert v.temperature == kT and v.lag_times[-1] == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_viscosity_of_a_hard_sphere_fluid_is_near_enskog(dim):
+    """Elastic fluids, spheres at n sigma^3 = 0.5 and disks at packing fraction 0.5: the
+    Einstein-Helfand viscosity is within statistics (~3 %, four errors allowed) of Enskog's times the
+    ratio molecular dynamics finds there, 1.0-1.1 for spheres (Alder, Gass & Wainwright, J. Chem.
+    Phys. 53, 3813 (1970)) and about 1 for disks (Gass, J. Chem. Phys. 54, 1898 (1971)); lags of 1.5-3
+    (about 5-10 and 10-20 mean free times) past the decay of the stress correlations.
+    tests/validation/test_transport.py pins it in longer runs."""
+    eta, (lo, hi) = ((0.5, (0.95, 1.1)) if dim == 2 else (math.pi * 0.5 / 6, (1.0, 1.1)))
+    sim = edmd.Simulation(edmd.maxwell_boltzmann(edmd.lattice(256, eta, dim=dim), 1.0, seed=4))
+    sim.run(until_time=10.0)
+    thermo = sim.add(edmd.Thermo(interval=0.2))
+    sim.run(until_time=3010.0)
+    v = ShearViscosity(lag_max=3.0, fit_from=1.5, blocks=10).compute(thermo, sim.state)
+    assert v.error < 0.08 * v.viscosity
+    spread = 4 * v.error / v.enskog
+    assert lo - spread < v.viscosity / v.enskog < hi + spread
+
+
+def test_bad_inputs_are_named():
+    state = edmd.lattice(27, 0.1)
+    table = _table(np.zeros((100, 3)), 0.1, 1.0, state.volume)
+    with pytest.raises(ValueError, match="too few"):
+        ShearViscosity(lag_max=1.0).compute(table, state)
+    gap = dict(table, time=np.r_[table["time"][:50], table["time"][50:] + 1.0])
+    with pytest.raises(ValueError, match="equally spaced"):
+        ShearViscosity(lag_max=0.2).compute(gap, state)
+    del table["pressure_xz"]
+    with pytest.raises(ValueError, match="no pressure tensor"):
+        ShearViscosity(lag_max=0.2).compute(table, state)
+    with pytest.raises(ValueError, match="fit_from"):
+        ShearViscosity(lag_max=1.0, fit_from=2.0)
