@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import edmd
-from edmd.analysis import ShearViscosity, enskog_diffusion, enskog_viscosity
+from edmd.analysis import SelfDiffusion, ShearViscosity, enskog_diffusion, enskog_viscosity
 
 
 def test_enskog_values_reduce_to_the_dilute_gas():
@@ -82,3 +82,39 @@ def test_bad_inputs_are_named():
         ShearViscosity(lag_max=0.2).compute(table, state)
     with pytest.raises(ValueError, match="fit_from"):
         ShearViscosity(lag_max=1.0, fit_from=2.0)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_self_diffusion_of_a_random_walk(dim):
+    """Frames of independent Gaussian steps of variance s^2 per component: D = s^2 / (2 dt) exactly in
+    expectation; 500 walkers x 2000 frames give it to ~1 %, within the blocks' error estimate."""
+    rng = np.random.default_rng(2)
+    base = edmd.lattice(500, 0.001, dim=dim)
+    dt, s = 0.5, 0.2
+    walk = np.cumsum(rng.normal(0.0, s, size=(2000, base.n, dim)), axis=0)
+    frames = []
+    for k in range(2000):
+        f = base.copy()
+        f.position = base.position + walk[k]
+        f.time = dt * (k + 1)
+        frames.append(f)
+    d = SelfDiffusion(lag_max=5.0, blocks=10).compute(frames)
+    expect = s * s / (2.0 * dt)
+    assert d.diffusion == pytest.approx(expect, rel=0.03)
+    assert abs(d.diffusion - expect) < 4 * d.error
+
+
+def test_self_diffusion_of_hard_spheres_against_enskog():
+    """n sigma^3 = 0.5, N = 256: molecular dynamics finds D/D_E = 1.2-1.3 in large systems (Alder,
+    Gass & Wainwright 1970; Speedy, Mol. Phys. 62, 509 (1987)); the periodic box of 8 sigma slows it
+    by the hydrodynamic 2.837 kT / (6 pi eta L) ~ 0.03 (Yeh & Hummer 2004), so 1.05-1.3 here, the
+    statistical error (~1 %) being far smaller."""
+    sim = edmd.Simulation(edmd.maxwell_boltzmann(edmd.lattice(256, math.pi * 0.5 / 6), 1.0, seed=4))
+    sim.run(until_time=10.0)
+    frames = []
+    for k in range(1, 1001):
+        sim.run(until_time=10.0 + 0.25 * k)
+        frames.append(sim.state)
+    d = SelfDiffusion(lag_max=5.0, blocks=5).compute(frames)
+    assert d.error < 0.03 * d.diffusion
+    assert 1.05 < d.diffusion / d.enskog < 1.3

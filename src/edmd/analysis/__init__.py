@@ -20,7 +20,7 @@ from .packing import ContactNetwork, contact_pairs, rattlers
 from .steady import Profile, SteadyState, blocking_errors
 from .structure import RDF, pair_histogram
 from .thermal import AlgebraicCooling, HaffLaw, Pressure, Temperature, VelocityDistribution, sonine_a2
-from .transport import ShearViscosity, enskog_diffusion, enskog_viscosity
+from .transport import SelfDiffusion, ShearViscosity, enskog_diffusion, enskog_viscosity
 
 __all__ = [
     "MSD",
@@ -32,6 +32,7 @@ __all__ = [
     "ImpactPhases",
     "Pressure",
     "Profile",
+    "SelfDiffusion",
     "ShearViscosity",
     "SteadyState",
     "Temperature",
