@@ -277,3 +277,18 @@ def test_compress_squeezes_a_film_between_walls(tmp_path):
     assert abs(film.box[0] / film.box[1] - 1.0) < 1e-12  # the configured (square) box
     r = runner.invoke(app, ["compress", str(cfg), "--out", str(tmp_path / "f2"), "--film", "x", "--no-progress"])
     assert r.exit_code == 2 and "closed by walls" in r.output
+
+
+def test_transport_prints_viscosity_and_diffusion_beside_enskog(tmp_path):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(
+        "[system]\ndim = 3\nn = 108\npacking_fraction = 0.2618\nkT = 1.0\n[collision]\nrule = \"inelastic\"\ne_n = 1.0\n"
+        "[run]\nuntil_time = 150.0\noutput_interval = 0.25\nprogress = false\n[output]\nplots = false\ncheckpoint = false\n"
+    )
+    run = tmp_path / "run"
+    assert runner.invoke(app, ["run", str(cfg), "--out", str(run)]).exit_code == 0
+    r = runner.invoke(app, ["transport", str(run), "--settle", "10", "--lag-max", "2"])
+    assert r.exit_code == 0, r.output
+    assert "shear viscosity" in r.output and "self-diffusion" in r.output and (run / "viscosity.png").exists()
+    r = runner.invoke(app, ["transport", str(run), "--settle", "140", "--lag-max", "2"])
+    assert r.exit_code == 2 and "too few" in r.output

@@ -186,3 +186,14 @@ def test_frames_appended_with_a_run_id_to_a_file_without_one_stay_readable(tmp_p
     assert [s.time for s in iter_states(p)] == [0.0, 0.5, 1.0, 1.5, 2.0]
     with gsd.hoomd.open(p) as f:
         assert all("edmd/run_id" not in frame.log for frame in f)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_writing_frames_is_silent(tmp_path, caplog, dim):
+    """Every array handed to GSD is contiguous (a smooth run's spins are a broadcast constant): GSD
+    would log "implicit data copy" for each frame otherwise (the CLI shows such warnings)."""
+    sim = edmd.Simulation(edmd.maxwell_boltzmann(edmd.lattice(27, 0.1, dim=dim), 1.0, seed=1))
+    sim.add(Trajectory(tmp_path / "t.gsd", 0.5))
+    with caplog.at_level("WARNING"):
+        sim.run(until_time=1.0)
+    assert not [r for r in caplog.records if "copy" in r.getMessage()]

@@ -1,4 +1,4 @@
-"""Command line: ``edmd run``, ``edmd compress``, ``edmd init``, ``edmd sweep``, ``edmd export``, ``edmd plot``, ``edmd movie``, ``edmd tables``, ``edmd compile``."""
+"""Command line: ``edmd run``, ``edmd compress``, ``edmd init``, ``edmd sweep``, ``edmd export``, ``edmd plot``, ``edmd steady``, ``edmd transport``, ``edmd movie``, ``edmd tables``, ``edmd compile``."""
 
 from __future__ import annotations
 
@@ -245,6 +245,42 @@ def steady(
                 f"{imp.times.size} impacts on the vibrating wall: {imp.rate:.6g} per unit time, mean impact speed "
                 f"{imp.mean_speed:.6g}, most frequent phase {0.5 * (imp.phase_edges[imp.phase_pdf.argmax()] + imp.phase_edges[imp.phase_pdf.argmax() + 1]):.4g} rad; wrote {figure.name}"
             )
+    except (StateError, ValueError, OSError) as exc:
+        _fail(str(exc))
+
+
+@app.command()
+def transport(
+    run_dir: Path = typer.Argument(Path("edmd-run"), help="A run directory written by `edmd run` (an equilibrium run)."),
+    settle: float = typer.Option(0.0, "--settle", help="Ignore rows and frames before this time (equilibration)."),
+    lag_max: float = typer.Option(4.0, "--lag-max", help="Longest lag (time) of the Helfand moment and the MSD."),
+    fit_from: float = typer.Option(None, "--fit-from", help="Shortest fitted lag (default: half of --lag-max)."),
+    blocks: int = typer.Option(5, "--blocks", min=2, help="Parts of the run for the error bars."),
+):
+    """Shear viscosity (Einstein-Helfand, thermo.csv's pressure tensor) and self-diffusion (MSD of
+    trajectory.gsd) with block error bars, beside Enskog's values; writes viscosity.png."""
+    from ..analysis.transport import SelfDiffusion, ShearViscosity
+    from ..files.trajectory import iter_states, read_state
+    from .plots import save
+
+    try:
+        path = run_dir / "trajectory.gsd"
+        if not path.exists():
+            raise ValueError(f"{path} does not exist: the transport coefficients need the run's trajectory")
+        state = read_state(path, check_overlaps=False)
+        table = Table(title=f"transport coefficients of {run_dir} (t > {settle:g}, T = {state.temperature():.6g})")
+        for name in ("coefficient", "value", "error", "Enskog", "ratio"):
+            table.add_column(name)
+        visc = ShearViscosity(t_min=settle, lag_max=lag_max, fit_from=fit_from, blocks=blocks).compute(run_dir / "thermo.csv", state)
+        table.add_row("shear viscosity", f"{visc.viscosity:.6g}", f"{visc.error:.2g}", f"{visc.enskog:.6g}", f"{visc.viscosity / visc.enskog:.4g}")
+        frames = [s for s in iter_states(path, check_overlaps=False) if s.time > settle]
+        if len(frames) > 2 and not np.isclose(frames[-1].time - frames[-2].time, frames[1].time - frames[0].time, rtol=1e-9):
+            frames.pop()  # (the final frame a run always writes, off the grid of the others)
+        diff = SelfDiffusion(t_min=settle, lag_max=lag_max, fit_from=fit_from, blocks=blocks).compute(frames)
+        table.add_row("self-diffusion", f"{diff.diffusion:.6g}", f"{diff.error:.2g}", f"{diff.enskog:.6g}", f"{diff.diffusion / diff.enskog:.4g}")
+        console.print(table)
+        figure = save(visc.plot(), run_dir / "viscosity.png")
+        console.print(f"wrote {figure.name}")
     except (StateError, ValueError, OSError) as exc:
         _fail(str(exc))
 
