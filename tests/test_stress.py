@@ -9,6 +9,7 @@ from edmd.files.thermo import pressure_tensor
 from edmd.physics.collide import TC, Rough, Wall
 from edmd.physics.contact import Hertz
 from edmd.physics.emdstar import EMDStar
+from edmd.physics.friction import Friction
 
 
 def _gas(dim, n=256, eta=0.2, seed=1, **kw):
@@ -27,9 +28,22 @@ def _running(sim):
     return sim.engine.accumulators_at(sim.time)[L.A_KT : L.A_KT + 6]
 
 
+def _energies(state):
+    """e_i = m v^2 / 2 + I w^2 / 2 with committed velocities."""
+    w = np.asarray(state.angular_velocity).reshape(state.n, -1)
+    return 0.5 * state.mass * np.sum(state.committed_velocity**2, axis=1) + 0.5 * state.inertia * np.sum(w**2, axis=1)
+
+
+def _current(state):
+    """sum_i e_i v_i of a state (3 components)."""
+    out = np.zeros(3)
+    out[: state.dim] = _energies(state) @ state.committed_velocity
+    return out
+
+
 def _features(dim):
     """Runs with every kind of velocity change the core books: collisions of every rule, walls,
-    gravity, the heat bath, white noise, square wells, growth and eMD*."""
+    gravity, the heat bath, white noise, square wells, growth and eMD* (smooth and frictional)."""
     closed = [True] * (dim - 1) + [False]
     g = np.zeros(dim)
     g[-1] = -0.5
@@ -41,6 +55,10 @@ def _features(dim):
         "square_well": (_gas(dim), {"well": edmd.SquareWell(width=1.5, depth=1.0)}),
         "growth": (_gas(dim), {"growth": edmd.Growth(rate=0.01)}),
         "emdstar": (_gas(dim, eta=0.3), {"collision": EMDStar(Hertz(young=2e3, poisson=0.3, A=2e-3))}),
+        "emdstar_friction": (
+            edmd.maxwell_boltzmann(edmd.random_packing(256, 0.3, dim=dim, seed=1), 1.0, seed=2, spin=True),
+            {"collision": EMDStar(Hertz(young=2e3, poisson=0.3, A=2e-3), friction=Friction(mu=0.3, law="mindlin"))},
+        ),
     }
 
 
@@ -48,7 +66,8 @@ def _features(dim):
 @pytest.mark.parametrize("feature", list(_features(2)))
 def test_running_kinetic_tensor_follows_every_velocity_change(dim, feature):
     """The core's running sum_i m v (x) v equals the state's after thousands of events of each kind
-    (1e-10 of its scale: round-off of ~1e5 updates), and its trace is twice the kinetic energy."""
+    (1e-10 of its scale: round-off of ~1e5 updates), and its trace is twice the kinetic energy; so
+    does the running energy current sum_i e_i v_i where the engine keeps it."""
     state, kw = _features(dim)[feature]
     sim = edmd.Simulation(state, **kw)
     sim.run(until_time=8.0)
@@ -58,6 +77,9 @@ def test_running_kinetic_tensor_follows_every_velocity_change(dim, feature):
     scale = np.abs(expect[:3]).sum()
     np.testing.assert_allclose(_running(sim), expect, rtol=0, atol=1e-10 * scale)
     acc = sim.engine.accumulators_at(sim.time)
+    if sim.engine.keeps_energy_current:
+        expect = _current(s)
+        np.testing.assert_allclose(acc[L.A_JE : L.A_JE + 3], expect, rtol=0, atol=1e-10 * np.abs(expect).sum())
     assert acc[L.A_KT : L.A_KT + 3].sum() == pytest.approx(2.0 * acc[L.A_KE], rel=1e-12)
     # the time integral's trace is twice the kinetic-energy integral, the virial's the scalar virial
     assert acc[L.A_KT_INT : L.A_KT_INT + 3].sum() == pytest.approx(2.0 * acc[L.A_KE_INT], rel=1e-12)
@@ -143,3 +165,35 @@ def test_totals_round_trip_with_the_stress_integral():
     t = sim.totals()
     back = edmd.Totals.from_dict(t.to_dict())
     assert back == t and np.array_equal(back.stress_integral, t.stress_integral)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("rule", ["smooth", "rough"])
+def test_energy_flux_is_the_growth_of_the_energy_moment(dim, rule):
+    """In a box closed by elastic smooth walls, energy is conserved at every collision and walls
+    change no particle's energy, so d/dt sum_i r_i e_i = sum_i e_i v_i + sum_coll r_ij (De_i - De_j) / 2
+    exactly: the accumulated energy flux equals the change of sum_i r_i e_i (1e-11 of its scale)."""
+    state = _gas(dim, n=200, eta=0.2, periodic=[False] * dim)
+    collision = edmd.collide.Inelastic(1.0) if rule == "smooth" else Rough(1.0, beta=1.0)
+    sim = edmd.Simulation(state, collision=collision)
+    assert sim.engine.keeps_energy_current
+    start = sim.state
+    sim.run(until_time=12.0)
+    end = sim.state
+    assert sim.collisions > 1000 and sim.totals().wall_collisions > 100
+    moment = _energies(end) @ end.position - _energies(start) @ start.position
+    flux = sim.totals().energy_flux_integral[:dim]
+    scale = np.abs(_energies(start)).sum() * start.box.max()
+    np.testing.assert_allclose(flux, moment, rtol=0, atol=1e-11 * scale)
+    if rule == "rough":
+        assert end.rotational_energy() > 0.1 * end.kinetic_energy()  # energy went into spins and back
+
+
+def test_energy_flux_columns_and_where_they_are_left_out():
+    sim = edmd.Simulation(_gas(3, n=64))
+    thermo = sim.add(edmd.Thermo(interval=0.5))
+    sim.run(until_time=1.0)
+    assert [c for c in thermo.rows[-1] if c.startswith("energy_flux_")] == ["energy_flux_x", "energy_flux_y", "energy_flux_z"]
+    for kw in ({"gravity": [0, 0, -1.0]}, {"well": edmd.SquareWell(width=1.5, depth=1.0)}, {"forcing": edmd.WhiteNoise(xi0=1.0, interval=0.05)}):
+        other = edmd.Simulation(_gas(3, n=64, periodic=[True, True, False]) if "gravity" in kw else _gas(3, n=64), **kw)
+        assert other.totals().energy_flux_integral is None and other.totals().stress_integral is not None

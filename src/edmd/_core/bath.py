@@ -27,7 +27,7 @@ import numpy as np
 from . import layout as L
 from .jit import jit, leaf
 from .rng import normal_pair, stream, uniform
-from .stress import book_velocity_change
+from .stress import book_velocity_change, particle_current
 
 #: the ``count`` of the key of the clock draws at a load (event counters are int32, never this)
 SCHEDULE = np.uint64(1 << 40)
@@ -61,6 +61,8 @@ def bath_event(i, t, P, mass, omega, inertia, count, drive, fp, acc, rough):
     s = math.sqrt(kT / mass[i])
     g = normal_pair(z, 1) + normal_pair(z, 3) + normal_pair(z, 5)
     de = 0.0
+    turns = omega.shape[0] != 0  # (e_i holds the spin's energy whenever spins are kept)
+    particle_current(acc, P, mass, omega, inertia, i, turns, -1.0)
     v0 = (P[i, L.VX], P[i, L.VY], P[i, L.VZ])
     for k in range(3):
         old = P[i, L.VX + k]
@@ -77,4 +79,5 @@ def bath_event(i, t, P, mass, omega, inertia, count, drive, fp, acc, rough):
             de += 0.5 * inertia[i] * (new * new - omega[i, k] * omega[i, k])
             omega[i, k] = new
     acc[L.A_ENERGY_INPUT] += de
+    particle_current(acc, P, mass, omega, inertia, i, turns, 1.0)
     drive.bath_t[i] = t + _waiting_time(z, fp[L.FP_BATH_RATE])

@@ -28,7 +28,7 @@ from .layout import NORMAL_CONST, TANGENT_COULOMB, TANGENT_SMOOTH
 from .contact import MODEL_HERTZ, contact_scales
 from .jit import hot, leaf
 from .predict import wrap3
-from .stress import impulse_tensor, virial_tensor
+from .stress import energy_virial, impulse_tensor, particle_current, particle_energy, virial_tensor
 from .twobody import dashpot_central
 from .wallmotion import start_ride, sticks, wall_velocity
 
@@ -104,7 +104,7 @@ def impulse(nx, ny, nz, gx, gy, gz, wx, wy, wz, inv_mu, inv_mt, e, beta, mu_c, t
 
 
 @leaf
-def pair_impulse(P, mass, i, j, jn, nx, ny, nz, r, acc):
+def pair_impulse(P, mass, omega, inertia, i, j, jn, nx, ny, nz, r, acc):
     r"""Apply the normal impulse :math:`J_n\hat{\mathbf n}` to ``i`` and its opposite to ``j`` (smooth
     particles at distance ``r``) and add it to the virial and the stress tensor (:mod:`.stress`)."""
     mi, mj = mass[i], mass[j]
@@ -112,17 +112,15 @@ def pair_impulse(P, mass, i, j, jn, nx, ny, nz, r, acc):
     impulse_tensor(acc, 1.0 / mi + 1.0 / mj, gx, gy, gz, jn * nx, jn * ny, jn * nz)
     virial_tensor(acc, r * nx, r * ny, r * nz, jn * nx, jn * ny, jn * nz)
     acc[L.A_VIRIAL] += r * jn
+    turns = omega.shape[0] != 0
+    ei0 = particle_current(acc, P, mass, omega, inertia, i, turns, -1.0)
+    ej0 = particle_current(acc, P, mass, omega, inertia, j, turns, -1.0)
     for k, nk in ((0, nx), (1, ny), (2, nz)):
         P[i, L.VX + k] += jn / mi * nk
         P[j, L.VX + k] -= jn / mj * nk
-
-
-@leaf
-def _energy(P, mass, omega, inertia, i, spin):
-    e = mass[i] * (P[i, L.VX] ** 2 + P[i, L.VY] ** 2 + P[i, L.VZ] ** 2)
-    if spin:
-        e += inertia[i] * (omega[i, 0] ** 2 + omega[i, 1] ** 2 + omega[i, 2] ** 2)
-    return 0.5 * e
+    ei1 = particle_current(acc, P, mass, omega, inertia, i, turns, 1.0)
+    ej1 = particle_current(acc, P, mass, omega, inertia, j, turns, 1.0)
+    energy_virial(acc, r * nx, r * ny, r * nz, ei1 - ei0, ej1 - ej0)
 
 
 @leaf
@@ -186,13 +184,18 @@ def collide_pair(t, P, mass, omega, inertia, tlast, i, j, geo, fp, ip, etab, acc
         e = normal_restitution(normal, fp[L.FP_EN], -gn, 1.0 / inv_mu, ri * rj / (ri + rj), fp, ip, etab)
     jx, jy, jz, vn, vt = impulse(nx, ny, nz, gx, gy, gz, wx, wy, wz, inv_mu, inv_mt, e, beta, fp[L.FP_MU], tangent)
     if spin:
-        k0 = _energy(P, mass, omega, inertia, i, False) + _energy(P, mass, omega, inertia, j, False)
-        e0 = _energy(P, mass, omega, inertia, i, True) + _energy(P, mass, omega, inertia, j, True)
+        k0 = particle_energy(P, mass, omega, inertia, i, False) + particle_energy(P, mass, omega, inertia, j, False)
+    turns = spin or omega.shape[0] != 0  # (e_i holds the spin's energy whenever spins are kept)
+    ei0 = particle_current(acc, P, mass, omega, inertia, i, turns, -1.0)
+    ej0 = particle_current(acc, P, mass, omega, inertia, j, turns, -1.0)
     _kick(P, omega, inertia, i, jx, jy, jz, nx, ny, nz, 1.0 / mi, ri, spin)
     _kick(P, omega, inertia, j, jx, jy, jz, nx, ny, nz, -1.0 / mj, rj, spin)
+    ei1 = particle_current(acc, P, mass, omega, inertia, i, turns, 1.0)
+    ej1 = particle_current(acc, P, mass, omega, inertia, j, turns, 1.0)
+    energy_virial(acc, r * nx, r * ny, r * nz, ei1 - ei0, ej1 - ej0)
     if spin:
-        dk = _energy(P, mass, omega, inertia, i, False) + _energy(P, mass, omega, inertia, j, False) - k0
-        lost = e0 - _energy(P, mass, omega, inertia, i, True) - _energy(P, mass, omega, inertia, j, True)
+        dk = particle_energy(P, mass, omega, inertia, i, False) + particle_energy(P, mass, omega, inertia, j, False) - k0
+        lost = ei0 + ej0 - ei1 - ej1  # (spin: turns)
     else:  # smooth: physics.md §2.1, Delta E = -mu (1 - e^2) g_n^2 / 2, spins untouched
         dk = -0.5 * (1.0 - e * e) * gn * gn / inv_mu
         lost = -dk
@@ -258,7 +261,9 @@ def collide_wall(t, P, mass, omega, inertia, tlast, i, axis, face, geo, fp, ip, 
     stick = sticks(P, axis, face, t, -e * gn, geo)  # the sticking solution (physics.md §1.6.3)
     if stick:
         e = 0.0
-    k0 = _energy(P, mass, omega, inertia, i, False)
+    k0 = particle_energy(P, mass, omega, inertia, i, False)
+    turns = omega.shape[0] != 0  # (e_i holds the spin's energy whenever spins are kept, see collide_pair)
+    particle_current(acc, P, mass, omega, inertia, i, turns, -1.0)  # (lab frame)
     if uw != 0.0:  # into the wall's frame
         P[i, L.VX + axis] -= uw
         gx, gy, gz = P[i, L.VX], P[i, L.VY], P[i, L.VZ]
@@ -266,15 +271,16 @@ def collide_wall(t, P, mass, omega, inertia, tlast, i, axis, face, geo, fp, ip, 
     if spin:
         wx, wy, wz = ri * omega[i, 0], ri * omega[i, 1], ri * omega[i, 2]
     jx, jy, jz, vn, vt = impulse(nx, ny, nz, gx, gy, gz, wx, wy, wz, inv_mu, inv_mt, e, beta, fp[L.FP_WALL_MU], tangent)
-    e0 = _energy(P, mass, omega, inertia, i, spin)
+    e0 = particle_energy(P, mass, omega, inertia, i, spin)
     _kick(P, omega, inertia, i, jx, jy, jz, nx, ny, nz, 1.0 / mi, ri, spin)
-    e1 = _energy(P, mass, omega, inertia, i, spin)
+    e1 = particle_energy(P, mass, omega, inertia, i, spin)
     if uw != 0.0:
         P[i, L.VX + axis] += uw
         acc[L.A_ENERGY_INPUT] += uw * (jx * nx + jy * ny + jz * nz) * sign
     if stick:
         start_ride(P, i, axis, uw, mass, acc)
-    acc[L.A_KE] += _energy(P, mass, omega, inertia, i, False) - k0
+    particle_current(acc, P, mass, omega, inertia, i, turns, 1.0)
+    acc[L.A_KE] += particle_energy(P, mass, omega, inertia, i, False) - k0
     impulse_tensor(acc, inv_mu, vx, vy, vz, jx, jy, jz)  # (a new rider's is not reported)
     acc[L.A_DISSIPATED] += e0 - e1
     acc[L.A_PX] += jx

@@ -36,7 +36,7 @@ from .lookup import matrix_of_restitution
 from .nblist import SQRT3, rebuild_list
 from .predict import INF, advance, box_shift, contact_time, flight, separation, wrap3
 from .schedule import repredict, set_pair, wrap_into_box
-from .stress import impulse_tensor, virial_tensor
+from .stress import committed_current, energy_virial, impulse_tensor, particle_current, virial_tensor
 from .twobody import collision_frame, lab_frame_update
 from .twobody_friction import frictional_update
 from .wallmotion import wall_planes
@@ -294,6 +294,9 @@ def _make_emd_contact(frictional):
         ji = (mass[i] * (work[6, 0] + work[7, 0] - P[i, L.VX]), mass[i] * (work[6, 1] + work[7, 1] - P[i, L.VY]), mass[i] * (work[6, 2] + work[7, 2] - P[i, L.VZ]))
         virial_tensor(acc, work[0, 0] - work[1, 0], work[0, 1] - work[1, 1], work[0, 2] - work[1, 2], ji[0], ji[1], ji[2])
         impulse_tensor(acc, 1.0 / mass[i] + 1.0 / mass[j], gx, gy, gz, ji[0], ji[1], ji[2])  # (committed velocities)
+        turns = omega.shape[0] != 0  # (e_i holds the spin's energy whenever spins are kept)
+        ei0 = particle_current(acc, P, mass, omega, inertia, i, turns, -1.0)
+        ej0 = particle_current(acc, P, mass, omega, inertia, j, turns, -1.0)
         for k in range(3):
             jk = ji[k]
             jn += (work[0, k] - work[1, k]) * jk
@@ -307,6 +310,9 @@ def _make_emd_contact(frictional):
             for k in range(3):
                 omega[i, k] = work[9, k]
                 omega[j, k] = work[10, k]
+        ei1 = committed_current(acc, mass, omega, inertia, i, work[6], work[7], turns)
+        ej1 = committed_current(acc, mass, omega, inertia, j, work[6], work[8], turns)
+        energy_virial(acc, work[0, 0] - work[1, 0], work[0, 1] - work[1, 1], work[0, 2] - work[1, 2], ei1 - ei0, ej1 - ej0)
         ptb[i] = t + tc
         ptb[j] = t + tc
         pj[i] = j

@@ -57,7 +57,7 @@ def closer_grow(xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, rate, best, bj):
 
 
 @hot
-def collide_growing(P, mass, i, j, geo, fp, acc, rate):
+def collide_growing(P, mass, omega, inertia, i, j, geo, fp, acc, rate):
     r"""Collide growing smooth ``i`` and ``j`` (streamed to contact): restitution of the gap's rate.
 
     The surfaces separate at :math:`u = g_n - \dot\sigma` (:math:`\dot\sigma = \sigma_{ij}\gamma`); the
@@ -78,7 +78,7 @@ def collide_growing(P, mass, i, j, geo, fp, acc, rate):
     e = fp[L.FP_EN]
     new = ds - e * u
     jn = mu * (new - gn)
-    pair_impulse(P, mass, i, j, jn, nx, ny, nz, r, acc)
+    pair_impulse(P, mass, omega, inertia, i, j, jn, nx, ny, nz, r, acc)
     dk = 0.5 * mu * (new * new - gn * gn)
     lost = 0.5 * mu * (1.0 - e * e) * u * u
     acc[L.A_KE] += dk

@@ -123,6 +123,10 @@ ACCUMULATORS = (
     *(f"kinetic_{c}" for c in TENSOR),  # running sum_i m_i v_ia v_ib (committed velocities; set at each load)
     *(f"kinetic_integral_{c}" for c in TENSOR),  # its time integral (local time, up to A_LAST_T)
     *(f"virial_{c}" for c in TENSOR),  # sum over collisions of (r_ij (x) J + J (x) r_ij) / 2
+    # the energy current (stress.py):
+    *(f"energy_current_{a}" for a in "xyz"),  # running sum_i e_i v_i (translational + rotational e_i)
+    *(f"energy_current_integral_{a}" for a in "xyz"),  # its time integral
+    *(f"energy_virial_{a}" for a in "xyz"),  # sum over collisions of r_ij (Delta E_i - Delta E_j) / 2
 )
 (
     A_VIRIAL, A_DISSIPATED, A_KE, A_KE_INT, A_LAST_T, A_PX, A_PY, A_PZ, A_NOW, A_BAD, A_EMD_VN, A_EMD_VT,
@@ -132,6 +136,7 @@ A_ENERGY_INPUT = ACCUMULATORS.index("energy_input")
 A_SEG_VIRIAL, A_SEG_KE_INT = ACCUMULATORS.index("segment_virial"), ACCUMULATORS.index("segment_kinetic_integral")
 A_RIDE_MASS = ACCUMULATORS.index("ride_mass")
 A_KT, A_KT_INT, A_VT = (ACCUMULATORS.index(f"{name}_xx") for name in ("kinetic", "kinetic_integral", "virial"))
+A_JE, A_JE_INT, A_QV = (ACCUMULATORS.index(f"{name}_x") for name in ("energy_current", "energy_current_integral", "energy_virial"))
 N_ACC = len(ACCUMULATORS)
 
 #: integer parameters (``ip`` array)

@@ -316,7 +316,7 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well, grow
                     vn = vt = 0.0
                     if well:
                         if edge:
-                            well_event(i, j, pairs.kind[i], P, mass, pairs, geo, fp, acc, cnt)
+                            well_event(i, j, pairs.kind[i], P, mass, omega, inertia, pairs, geo, fp, acc, cnt)
                             outcome = CONTACT_WELL
                     if emd_on:
                         if rough:  # (eMD* is rough only with friction: the frictional solver, compiled for these runs only)
@@ -330,7 +330,7 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well, grow
                         elif outcome == CONTACT_INSTANT:
                             cnt[L.C_EMD_FALLBACK] += 1
                     if grow:
-                        vn = collide_growing(P, mass, i, j, geo, fp, acc, rate)
+                        vn = collide_growing(P, mass, omega, inertia, i, j, geo, fp, acc, rate)
                         outcome = CONTACT_GROWN
                     if outcome == CONTACT_INSTANT and rough:
                         vn, vt = collide_pair(t, P, mass, omega, inertia, tlast, i, j, geo, fp, ip, etab, acc, cnt, ip[L.IP_TANGENT], normal)

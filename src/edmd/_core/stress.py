@@ -1,4 +1,4 @@
-r"""Accumulators of the stress tensor (physics.md §5.3): its kinetic part and the collisions' virial.
+r"""Accumulators of the stress tensor and the energy current (physics.md §5.3, §5.6): kinetic parts and the collisions'.
 
 The pressure tensor over an interval :math:`t_{\rm obs}` of a system of volume :math:`V` is
 
@@ -16,10 +16,16 @@ whose trace over :math:`d` is the scalar pressure. The core keeps the six symmet
 (:math:`+\mathbf J` on ``i``, :math:`-\mathbf J` on ``j``) by the same with the relative velocity
 :math:`\mathbf g = \mathbf v_i - \mathbf v_j` and :math:`1/\mu = 1/m_i + 1/m_j`, so each update is exact
 and free of cancellation.
+
+The energy current (for the thermal conductivity, §5.6) is kept the same way: the running
+:math:`\mathbf J_E = \sum_i e_i\mathbf v_i` with :math:`e_i = \tfrac12 m_iv_i^2 + \tfrac12 I_i\omega_i^2` (``A_JE``,
+updated from each changed particle's value before and after), its time integral (``A_JE_INT``)
+and the collisional transfer :math:`\sum_{\rm coll}\tfrac12\mathbf r_{ij}(\Delta e_i - \Delta e_j)`
+(``A_QV``; the energy an inelastic collision loses is taken out at the contact point).
 """
 
 from .jit import leaf
-from .layout import A_KT, A_KT_INT, A_PX, A_PY, A_PZ, A_VT, G_GX, G_GY, G_GZ, G_ON
+from .layout import A_JE, A_JE_INT, A_KT, A_KT_INT, A_PX, A_PY, A_PZ, A_QV, A_VT, G_GX, G_GY, G_GZ, G_ON, VX, VY, VZ
 
 
 @leaf
@@ -63,6 +69,8 @@ def free_fall_tensor(acc, tau, geo, total_mass):
     + M\,\mathbf G\otimes\mathbf G\,\tau^2`, integrated exactly."""
     for c in range(6):
         acc[A_KT_INT + c] += acc[A_KT + c] * tau
+    for k in range(3):  # (constant in free flight; not reported under gravity)
+        acc[A_JE_INT + k] += acc[A_JE + k] * tau
     if geo[G_ON] != 0.0:
         gx, gy, gz = geo[G_GX], geo[G_GY], geo[G_GZ]
         px, py, pz = acc[A_PX], acc[A_PY], acc[A_PZ]
@@ -70,3 +78,52 @@ def free_fall_tensor(acc, tau, geo, total_mass):
         _add_symmetric(acc, A_KT_INT, gx, gy, gz, gx, gy, gz, total_mass * tau * tau * tau / 6.0)
         _add_symmetric(acc, A_KT, gx, gy, gz, px, py, pz, tau)
         _add_symmetric(acc, A_KT, gx, gy, gz, gx, gy, gz, 0.5 * total_mass * tau * tau)
+
+
+@leaf
+def particle_energy(P, mass, omega, inertia, i, spin):
+    """Kinetic energy of particle ``i``, with its rotational energy if ``spin`` (otherwise the
+    spins and moments of inertia are not read: their arrays have size 0 in smooth runs)."""
+    e = mass[i] * (P[i, VX] ** 2 + P[i, VY] ** 2 + P[i, VZ] ** 2)
+    if spin:
+        e += inertia[i] * (omega[i, 0] ** 2 + omega[i, 1] ** 2 + omega[i, 2] ** 2)
+    return 0.5 * e
+
+
+@leaf
+def energy_current(acc, sign, e, vx, vy, vz):
+    r"""Add ``sign`` times :math:`e\,\mathbf v` to the running energy current."""
+    acc[A_JE] += sign * e * vx
+    acc[A_JE + 1] += sign * e * vy
+    acc[A_JE + 2] += sign * e * vz
+
+
+@leaf
+def particle_current(acc, P, mass, omega, inertia, i, spin, sign):
+    r"""Add ``sign`` times particle ``i``'s :math:`e_i\mathbf v_i` to the running energy current
+    (-1 before it changes, +1 after); returns :math:`e_i` (see :func:`particle_energy`)."""
+    e = particle_energy(P, mass, omega, inertia, i, spin)
+    energy_current(acc, sign, e, P[i, VX], P[i, VY], P[i, VZ])
+    return e
+
+
+@leaf
+def energy_virial(acc, rx, ry, rz, de_i, de_j):
+    r"""Add a collision's :math:`\tfrac12\mathbf r_{ij}(\Delta e_i - \Delta e_j)` to the collisional energy transfer."""
+    h = 0.5 * (de_i - de_j)
+    acc[A_QV] += rx * h
+    acc[A_QV + 1] += ry * h
+    acc[A_QV + 2] += rz * h
+
+
+@leaf
+def committed_current(acc, mass, omega, inertia, p, v, dv, spin):
+    r"""Add the :math:`e_p\mathbf v_p` of particle ``p`` with the committed velocity ``v + dv`` (an
+    eMD* pair moving with ``v`` until its B event) to the running energy current; returns :math:`e_p`."""
+    vx, vy, vz = v[0] + dv[0], v[1] + dv[1], v[2] + dv[2]
+    e = mass[p] * (vx * vx + vy * vy + vz * vz)
+    if spin:
+        e += inertia[p] * (omega[p, 0] ** 2 + omega[p, 1] ** 2 + omega[p, 2] ** 2)
+    e *= 0.5
+    energy_current(acc, 1.0, e, vx, vy, vz)
+    return e

@@ -102,7 +102,7 @@ def closer_well(xi, yi, zi, vxi, vyi, vzi, ri, P, pairs, i, j, t, geo, reach, be
 
 
 @jit
-def well_event(i, j, kind, P, mass, pairs, geo, fp, acc, cnt):
+def well_event(i, j, kind, P, mass, omega, inertia, pairs, geo, fp, acc, cnt):
     r"""Capture, release or bounce of the pair ``(i, j)`` at the edge of its well (streamed to the event).
 
     With :math:`g_n = (\mathbf v_i - \mathbf v_j)\cdot\hat{\mathbf n}` (:math:`\hat{\mathbf n}` from
@@ -140,7 +140,7 @@ def well_event(i, j, kind, P, mass, pairs, geo, fp, acc, cnt):
         new = -abs(gn)
         cnt[L.C_WELL_BOUNCE] += 1
     jn = mu * (new - gn)
-    pair_impulse(P, mass, i, j, jn, nx, ny, nz, r, acc)
+    pair_impulse(P, mass, omega, inertia, i, j, jn, nx, ny, nz, r, acc)
 
 
 @jit

@@ -101,7 +101,10 @@ class Thermo(Observer):
     particle :math:`2\\Delta N_{\\rm coll}/(N\\Delta t)` and, for every axis closed by walls,
     ``wall_pressure_<axis>``: the mean normal force per area on its two walls, and the pressure
     tensor ``pressure_<ab>`` (``xx, yy, zz, xy, xz, yz``; 2D ``xx, yy, xy``; :func:`pressure_tensor`,
-    whose trace over :math:`d` is ``pressure``; not in DEM runs or with a vibrating wall). eMD* runs
+    whose trace over :math:`d` is ``pressure``; not in DEM runs or with a vibrating wall), and the
+    energy flux ``energy_flux_<a>``: :math:`\\mathbf J_E/V` with
+    :math:`\\mathbf J_E = \\sum_i e_i\\mathbf v_i + \\sum_{\\rm coll}\\tfrac12\\mathbf r_{ij}(\\Delta e_i - \\Delta e_j)` (physics.md §5.6;
+    not under gravity, with square wells or white noise either). eMD* runs
     (:class:`edmd.physics.emdstar.EMDStar`) add the cumulative counters ``emd_contacts`` (A events),
     ``emd_exceptions_a``, ``emd_exceptions_b`` and ``emd_fallbacks`` (physics.md §4.8); their
     energies and temperatures use committed velocities. Runs with a thermostat, forcing
@@ -127,6 +130,7 @@ class Thermo(Observer):
         self._writer = None
         self._last: Totals | None = None
         self._tensor: bool | None = None  # False: continuing a table without the pressure tensor
+        self._flux: bool | None = None  # ... without the energy flux
 
     def observe(self, sim: Simulation, state: State, totals: Totals):
         kinetic, rotational = state.kinetic_energy(), state.rotational_energy()
@@ -152,6 +156,9 @@ class Thermo(Observer):
         tensor = self._tensor is not False and totals.stress_integral is not None
         if tensor:
             row.update(dict.fromkeys(pressure_tensor(state, np.zeros(6), 1.0), math.nan))
+        flux = self._flux is not False and totals.energy_flux_integral is not None
+        if flux:
+            row.update({f"energy_flux_{AXES[k]}": math.nan for k in range(state.dim)})
         last = self._last
         if last is not None and totals.time > last.time:
             dt = totals.time - last.time
@@ -162,6 +169,9 @@ class Thermo(Observer):
                 row[f"wall_pressure_{AXES[k]}"] = float((totals.wall_impulse[k] - last.wall_impulse[k]).sum()) / (2.0 * area * dt)
             if tensor and last.stress_integral is not None:
                 row.update(pressure_tensor(state, totals.stress_integral - last.stress_integral, dt))
+            if flux and last.energy_flux_integral is not None:
+                q = (totals.energy_flux_integral - last.energy_flux_integral) / (dt * state.volume)
+                row.update({f"energy_flux_{AXES[k]}": float(q[k]) for k in range(state.dim)})
         row.update(sim.emd_counters())
         if sim.has_energy_input:
             row["energy_input"] = totals.energy_input
@@ -203,11 +213,12 @@ class Thermo(Observer):
         super().restore_data(data)
         columns, ints = list(data["columns"]), set(data["integer_columns"])
         extra = columns[len(COLUMNS) :]
-        if columns[: len(COLUMNS)] != list(COLUMNS) or not all(c.startswith(("wall_pressure_", "pressure_", "emd_", "energy_input")) for c in extra):
-            raise ValueError(f"thermo columns {columns} differ from this version's {list(COLUMNS)} (+ wall pressures, pressure tensor, eMD* counters, energy input)")
+        if columns[: len(COLUMNS)] != list(COLUMNS) or not all(c.startswith(("wall_pressure_", "pressure_", "energy_flux_", "emd_", "energy_input")) for c in extra):
+            raise ValueError(f"thermo columns {columns} differ from this version's {list(COLUMNS)} (+ wall pressures, pressure tensor, energy flux, eMD* counters, energy input)")
         table = np.asarray(data.get("rows", np.zeros((0, len(columns)))), np.float64)
         self.rows = [{c: int(v) if c in ints else float(v) for c, v in zip(columns, r)} for r in table]
         self._tensor = ("pressure_xx" in columns) if self.rows else None
+        self._flux = ("energy_flux_x" in columns) if self.rows else None
         self._last = None if data["last"] is None else Totals.from_dict(data["last"])
         self.close()
         if self.path is not None:

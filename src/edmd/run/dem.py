@@ -100,7 +100,7 @@ class DEMEngine:
     well = None
     growth = None
     well_energy = 0.0  # (no square wells: the contacts' energy is the elastic energy)
-    keeps_stress = False  # (its virial is the scalar one)
+    keeps_stress = keeps_energy_current = False  # (its virial is the scalar one)
 
     def __init__(self, state: State, contact: ContactModel, dt: float, skin: float, gravity=None, friction: Friction | None = None):
         if not np.all(state.periodic):

@@ -575,6 +575,11 @@ class Engine:
         self.acc[L.A_PX : L.A_PZ + 1] = np.einsum("i,ij->j", self.part.mass, committed)
         tensor = np.einsum("i,ij,ik->jk", self.part.mass, committed, committed)  # (no N-sized temporary)
         self.acc[L.A_KT : L.A_KT + 6] = [tensor[a, b] for a, b in L.TENSOR_AXES]
+        energy = 0.5 * self.part.mass * np.einsum("ij,ij->i", committed, committed)
+        if len(self.part.omega):
+            energy += 0.5 * self.part.inertia * np.einsum("ij,ij->i", self.part.omega, self.part.omega)
+        self.acc[L.A_JE : L.A_JE + 3] = energy @ committed
+        del energy
         self.events_at_sync = int(self.cnt[L.C_EVENTS])
 
     # ------------------------------------------------------------------ running
@@ -780,6 +785,13 @@ class Engine:
         but those with a vibrating wall (whose riders move with it; a vibrated bed has no
         homogeneous stress)."""
         return self.vibration is None
+
+    @property
+    def keeps_energy_current(self) -> bool:
+        """Whether the accumulators hold the energy current (:mod:`edmd._core.stress`): runs without
+        gravity, a vibrating wall, square wells (whose potential energy it leaves out) or white-noise
+        forcing (whose kicks it does not follow)."""
+        return self.keeps_stress and not np.any(self.grav) and self.well is None and self.forcing is None
 
     def accumulators_at(self, t: float) -> np.ndarray:
         """A copy of the accumulators (``layout.ACCUMULATORS``) carried on to absolute time ``t``

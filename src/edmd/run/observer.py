@@ -38,6 +38,9 @@ class Totals:
         stress_integral: the six components (``xx, yy, zz, xy, xz, yz``) of
             :math:`\\int\\sum_i m_i\\mathbf v_i\\otimes\\mathbf v_i\\,dt + \\sum_{\\rm coll}\\tfrac12(\\mathbf r_{ij}\\otimes\\mathbf J + \\mathbf J\\otimes\\mathbf r_{ij})`
             (physics.md §5.3), or ``None`` where the engine does not keep it (the DEM, a vibrating wall).
+        energy_flux_integral: the three components of
+            :math:`\\int\\sum_i e_i\\mathbf v_i\\,dt + \\sum_{\\rm coll}\\tfrac12\\mathbf r_{ij}(\\Delta e_i - \\Delta e_j)`
+            (physics.md §5.6), or ``None`` where the engine does not keep it (also gravity, square wells, white noise).
     """
 
     time: float
@@ -50,6 +53,7 @@ class Totals:
     wall_collisions: int
     energy_input: float = 0.0
     stress_integral: np.ndarray | None = None
+    energy_flux_integral: np.ndarray | None = None
 
     def __eq__(self, other):
         return isinstance(other, Totals) and self.to_dict() == other.to_dict()
@@ -58,16 +62,18 @@ class Totals:
         """JSON-ready (exact: floats survive JSON's repr round trip)."""
         out = dataclasses.asdict(self)
         out["wall_impulse"] = self.wall_impulse.tolist()
-        if self.stress_integral is not None:
-            out["stress_integral"] = self.stress_integral.tolist()
+        for name in ("stress_integral", "energy_flux_integral"):
+            if out[name] is not None:
+                out[name] = getattr(self, name).tolist()
         return out
 
     @classmethod
     def from_dict(cls, data: dict) -> Totals:
         data = dict(data)
         data["wall_impulse"] = np.asarray(data["wall_impulse"], np.float64).reshape(-1, 2)
-        if data.get("stress_integral") is not None:
-            data["stress_integral"] = np.asarray(data["stress_integral"], np.float64)
+        for name in ("stress_integral", "energy_flux_integral"):
+            if data.get(name) is not None:
+                data[name] = np.asarray(data[name], np.float64)
         return cls(**data)
 
 

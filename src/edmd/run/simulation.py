@@ -165,6 +165,7 @@ class Simulation:
             wall_collisions=int(e.cnt[L.C_WALL]),
             energy_input=float(acc[L.A_ENERGY_INPUT]),
             stress_integral=acc[L.A_KT_INT : L.A_KT_INT + 6] + acc[L.A_VT : L.A_VT + 6] if e.keeps_stress else None,
+            energy_flux_integral=acc[L.A_JE_INT : L.A_JE_INT + 3] + acc[L.A_QV : L.A_QV + 3] if e.keeps_energy_current else None,
         )
 
     @property
