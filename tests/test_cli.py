@@ -289,6 +289,7 @@ def test_transport_prints_viscosity_and_diffusion_beside_enskog(tmp_path):
     assert runner.invoke(app, ["run", str(cfg), "--out", str(run)]).exit_code == 0
     r = runner.invoke(app, ["transport", str(run), "--settle", "10", "--lag-max", "2"])
     assert r.exit_code == 0, r.output
-    assert "shear viscosity" in r.output and "self-diffusion" in r.output and (run / "viscosity.png").exists()
+    assert all(name in r.output for name in ("shear viscosity", "thermal conductivity", "self-diffusion"))
+    assert (run / "viscosity.png").exists() and (run / "conductivity.png").exists()
     r = runner.invoke(app, ["transport", str(run), "--settle", "140", "--lag-max", "2"])
     assert r.exit_code == 2 and "too few" in r.output

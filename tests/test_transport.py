@@ -6,15 +6,19 @@ import numpy as np
 import pytest
 
 import edmd
-from edmd.analysis import SelfDiffusion, ShearViscosity, enskog_diffusion, enskog_viscosity
+from edmd.analysis import SelfDiffusion, ShearViscosity, ThermalConductivity, enskog_conductivity, enskog_diffusion, enskog_viscosity
 
 
 def test_enskog_values_reduce_to_the_dilute_gas():
     """eta_E -> Chapman-Cowling's eta_0 (1.016 x 5/16 sqrt(m kT / pi) / sigma^2; Gass's 1.022 / (2 sigma) sqrt(m kT / pi)
-    for disks) and n D_E -> n D_0 as the density vanishes; both scale as sqrt(m kT)."""
+    for disks), lambda_E -> lambda_0 and n D_E -> n D_0 as the density vanishes; the scaling with sqrt(m kT)."""
     eta = 1e-9
     assert enskog_viscosity(eta, 3) == pytest.approx(1.016 * 5 / 16 / math.sqrt(math.pi), rel=1e-7)
     assert enskog_viscosity(eta, 2) == pytest.approx(1.022 / 2 / math.sqrt(math.pi), rel=1e-7)
+    assert enskog_conductivity(eta, 3) == pytest.approx(1.025 * 75 / 64 / math.sqrt(math.pi), rel=1e-7)
+    assert enskog_conductivity(eta, 2) == pytest.approx(1.029 * 2 / math.sqrt(math.pi), rel=1e-7)
+    # the dilute Prandtl-like ratio lambda_0 / eta_0 = (15/4) k/m (times the Sonine factors)
+    assert enskog_conductivity(eta, 3) / enskog_viscosity(eta, 3) == pytest.approx(15 / 4 * 1.025 / 1.016, rel=1e-7)
     n3 = 6 * eta / math.pi
     assert n3 * enskog_diffusion(eta, 3) == pytest.approx(1.019 * 3 / 8 / math.sqrt(math.pi), rel=1e-7)
     assert enskog_viscosity(0.3, 3, sigma=2.0, mass=4.0, kT=9.0) == pytest.approx(enskog_viscosity(0.3, 3) * 6.0 / 4.0, rel=1e-12)
@@ -51,22 +55,26 @@ def test_einstein_helfand_slope_of_a_random_walk():
 
 
 @pytest.mark.parametrize("dim", [2, 3])
-def test_viscosity_of_a_hard_sphere_fluid_is_near_enskog(dim):
+def test_viscosity_and_conductivity_of_a_hard_sphere_fluid_are_near_enskog(dim):
     """Elastic fluids, spheres at n sigma^3 = 0.5 and disks at packing fraction 0.5: the
-    Einstein-Helfand viscosity is within statistics (~3 %, four errors allowed) of Enskog's times the
-    ratio molecular dynamics finds there, 1.0-1.1 for spheres (Alder, Gass & Wainwright, J. Chem.
-    Phys. 53, 3813 (1970)) and about 1 for disks (Gass, J. Chem. Phys. 54, 1898 (1971)); lags of 1.5-3
-    (about 5-10 and 10-20 mean free times) past the decay of the stress correlations.
-    tests/validation/test_transport.py pins it in longer runs."""
-    eta, (lo, hi) = ((0.5, (0.95, 1.1)) if dim == 2 else (math.pi * 0.5 / 6, (1.0, 1.1)))
+    Einstein-Helfand viscosity and conductivity are within statistics (~3-5 %, four errors allowed)
+    of Enskog's times the ratios molecular dynamics finds there: 1.0-1.1 for the viscosity of
+    spheres, 1.0-1.05 for their conductivity (Alder, Gass & Wainwright, J. Chem. Phys. 53, 3813
+    (1970)), about 1 for disks (Gass, J. Chem. Phys. 54, 1898 (1971)); lags of 1.5-3 (about 5-10 and
+    10-20 mean free times) past the decay of the correlations. tests/validation/test_transport.py
+    pins the viscosity in longer runs."""
+    eta, bands = (0.5, {"viscosity": (0.95, 1.1), "conductivity": (0.95, 1.1)}) if dim == 2 else (math.pi * 0.5 / 6, {"viscosity": (1.0, 1.1), "conductivity": (1.0, 1.05)})
     sim = edmd.Simulation(edmd.maxwell_boltzmann(edmd.lattice(256, eta, dim=dim), 1.0, seed=4))
     sim.run(until_time=10.0)
     thermo = sim.add(edmd.Thermo(interval=0.2))
     sim.run(until_time=3010.0)
-    v = ShearViscosity(lag_max=3.0, fit_from=1.5, blocks=10).compute(thermo, sim.state)
-    assert v.error < 0.08 * v.viscosity
-    spread = 4 * v.error / v.enskog
-    assert lo - spread < v.viscosity / v.enskog < hi + spread
+    for name, analysis in (("viscosity", ShearViscosity), ("conductivity", ThermalConductivity)):
+        a = analysis(lag_max=3.0, fit_from=1.5, blocks=10).compute(thermo, sim.state)
+        value = getattr(a, name)
+        assert a.error < 0.08 * value, name
+        spread = 4 * a.error / a.enskog
+        lo, hi = bands[name]
+        assert lo - spread < value / a.enskog < hi + spread, (name, value / a.enskog, spread)
 
 
 def test_bad_inputs_are_named():
@@ -82,6 +90,13 @@ def test_bad_inputs_are_named():
         ShearViscosity(lag_max=0.2).compute(table, state)
     with pytest.raises(ValueError, match="fit_from"):
         ShearViscosity(lag_max=1.0, fit_from=2.0)
+    moving = edmd.maxwell_boltzmann(edmd.lattice(27, 0.1), 1.0, seed=1)
+    moving.velocity = moving.velocity + 0.5
+    with pytest.raises(ValueError, match="zero total momentum"):
+        ThermalConductivity(lag_max=0.2).compute(table, moving)
+    mixed = edmd.State(position=state.position, velocity=state.velocity, radius=state.radius, mass=np.r_[2.0, np.ones(26)], box=state.box)
+    with pytest.raises(ValueError, match="equal masses"):
+        ThermalConductivity(lag_max=0.2).compute(table, mixed)
 
 
 @pytest.mark.parametrize("dim", [2, 3])

@@ -20,7 +20,7 @@ from .packing import ContactNetwork, contact_pairs, rattlers
 from .steady import Profile, SteadyState, blocking_errors
 from .structure import RDF, pair_histogram
 from .thermal import AlgebraicCooling, HaffLaw, Pressure, Temperature, VelocityDistribution, sonine_a2
-from .transport import SelfDiffusion, ShearViscosity, enskog_diffusion, enskog_viscosity
+from .transport import SelfDiffusion, ShearViscosity, ThermalConductivity, enskog_conductivity, enskog_diffusion, enskog_viscosity
 
 __all__ = [
     "MSD",
@@ -35,12 +35,14 @@ __all__ = [
     "SelfDiffusion",
     "ShearViscosity",
     "SteadyState",
+    "ThermalConductivity",
     "Temperature",
     "VelocityDistribution",
     "compressibility_factor",
     "blocking_errors",
     "contact_value",
     "contact_pairs",
+    "enskog_conductivity",
     "enskog_diffusion",
     "enskog_viscosity",
     "rattlers",

@@ -257,9 +257,10 @@ def transport(
     fit_from: float = typer.Option(None, "--fit-from", help="Shortest fitted lag (default: half of --lag-max)."),
     blocks: int = typer.Option(5, "--blocks", min=2, help="Parts of the run for the error bars."),
 ):
-    """Shear viscosity (Einstein-Helfand, thermo.csv's pressure tensor) and self-diffusion (MSD of
-    trajectory.gsd) with block error bars, beside Enskog's values; writes viscosity.png."""
-    from ..analysis.transport import SelfDiffusion, ShearViscosity
+    """Shear viscosity and thermal conductivity (Einstein-Helfand, thermo.csv's pressure tensor and
+    energy flux) and self-diffusion (MSD of trajectory.gsd) with block error bars, beside Enskog's
+    values; writes viscosity.png and conductivity.png."""
+    from ..analysis.transport import SelfDiffusion, ShearViscosity, ThermalConductivity
     from ..files.trajectory import iter_states, read_state
     from .plots import save
 
@@ -271,16 +272,19 @@ def transport(
         table = Table(title=f"transport coefficients of {run_dir} (t > {settle:g}, T = {state.temperature():.6g})")
         for name in ("coefficient", "value", "error", "Enskog", "ratio"):
             table.add_column(name)
-        visc = ShearViscosity(t_min=settle, lag_max=lag_max, fit_from=fit_from, blocks=blocks).compute(run_dir / "thermo.csv", state)
-        table.add_row("shear viscosity", f"{visc.viscosity:.6g}", f"{visc.error:.2g}", f"{visc.enskog:.6g}", f"{visc.viscosity / visc.enskog:.4g}")
+        options = {"t_min": settle, "lag_max": lag_max, "fit_from": fit_from, "blocks": blocks}
+        visc = ShearViscosity(**options).compute(run_dir / "thermo.csv", state)
+        cond = ThermalConductivity(**options).compute(run_dir / "thermo.csv", state)
+        for name, a, value in (("shear viscosity", visc, visc.viscosity), ("thermal conductivity", cond, cond.conductivity)):
+            table.add_row(name, f"{value:.6g}", f"{a.error:.2g}", f"{a.enskog:.6g}", f"{value / a.enskog:.4g}")
         frames = [s for s in iter_states(path, check_overlaps=False) if s.time > settle]
         if len(frames) > 2 and not np.isclose(frames[-1].time - frames[-2].time, frames[1].time - frames[0].time, rtol=1e-9):
             frames.pop()  # (the final frame a run always writes, off the grid of the others)
-        diff = SelfDiffusion(t_min=settle, lag_max=lag_max, fit_from=fit_from, blocks=blocks).compute(frames)
+        diff = SelfDiffusion(**options).compute(frames)
         table.add_row("self-diffusion", f"{diff.diffusion:.6g}", f"{diff.error:.2g}", f"{diff.enskog:.6g}", f"{diff.diffusion / diff.enskog:.4g}")
         console.print(table)
-        figure = save(visc.plot(), run_dir / "viscosity.png")
-        console.print(f"wrote {figure.name}")
+        written = [save(a.plot(), run_dir / f"{name}.png").name for name, a in (("viscosity", visc), ("conductivity", cond))]
+        console.print(f"wrote {' and '.join(written)}")
     except (StateError, ValueError, OSError) as exc:
         _fail(str(exc))
 
