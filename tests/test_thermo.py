@@ -55,22 +55,26 @@ def _thermo_run(path, until=1.0):
     sim.close()
 
 
+#: the columns of a 3D run in a periodic box (pressure tensor, energy flux)
+RUN_COLUMNS = [*COLUMNS, *(f"pressure_{c}" for c in ("xx", "yy", "zz", "xy", "xz", "yz")), "energy_flux_x", "energy_flux_y", "energy_flux_z"]
+
+
 def test_thermo_appends_under_its_own_header(tmp_path):
     p = tmp_path / "thermo.csv"
-    p.write_text(",".join(COLUMNS) + "\n")
+    p.write_text(",".join(RUN_COLUMNS) + "\n")
     _thermo_run(p)
     assert read_thermo(p)["time"].tolist() == [0.0, 0.5, 1.0]
 
 
 def test_thermo_refuses_a_file_with_other_columns(tmp_path):
     p = tmp_path / "thermo.csv"
-    old = [c for c in COLUMNS if c != "wall_collisions"] + ["old_counter"]
+    old = [c for c in RUN_COLUMNS if c != "wall_collisions"] + ["old_counter"]
     p.write_text(",".join(old) + "\n" + ",".join("1" for _ in old) + "\n")
     before = p.read_bytes()
     msg = r"thermo\.csv has the thermo columns .* \(only in the file: \['old_counter'\]; only in this run: \['wall_collisions'\]\)"
     with pytest.raises(ValueError, match=msg):
         _thermo_run(p)
     assert p.read_bytes() == before  # nothing appended under the wrong header
-    p.write_text(",".join(reversed(COLUMNS)) + "\n")
+    p.write_text(",".join(reversed(RUN_COLUMNS)) + "\n")
     with pytest.raises(ValueError, match="the same columns in another order"):
         _thermo_run(p)
