@@ -36,7 +36,7 @@ from .lookup import matrix_of_restitution
 from .nblist import SQRT3, rebuild_list
 from .predict import INF, advance, box_shift, contact_time, flight, separation, wrap3
 from .schedule import repredict, set_pair, wrap_into_box
-from .stress import committed_current, energy_virial, impulse_tensor, particle_current, virial_tensor
+from .stress import committed_current, drift_flux, energy_virial, impulse_tensor, particle_current, particle_energy, virial_tensor
 from .twobody import collision_frame, lab_frame_update
 from .twobody_friction import frictional_update
 from .wallmotion import wall_planes
@@ -50,19 +50,46 @@ def is_pending(emd, p):
 
 
 @hot
-def execute_b(p, t, P, count, emd, geo):
-    r"""Event B of ``p`` at time ``t`` (on schedule, or early in exception b): :math:`\mathbf v \leftarrow \mathbf v(t) + \boldsymbol\Delta`."""
+def execute_b(p, t, part, acc, emd, geo):
+    r"""Event B of ``p`` at time ``t`` (on schedule, or early in exception b): :math:`\mathbf v \leftarrow \mathbf v(t) + \boldsymbol\Delta`.
+
+    Early by :math:`\tau = t_B - t`, the particle flew with the pair's velocity for less than the
+    A event booked in the stress accumulators: :func:`.stress.drift_flux` books the difference,
+    :math:`\boldsymbol\Delta\tau` (see :func:`book_relocation`)."""
+    P, mass, omega, inertia, _image, count, _tlast = part
     pdv, ptb, pj = emd.pending_dv, emd.pending_until, emd.partner
     advance(P, p, t, geo)
     P[p, L.VX] += pdv[p, 0]
     P[p, L.VY] += pdv[p, 1]
     P[p, L.VZ] += pdv[p, 2]
+    early = ptb[p] - t
+    if early > 0.0:
+        e = particle_energy(P, mass, omega, inertia, p, omega.shape[0] != 0)
+        drift_flux(acc, mass[p], e, pdv[p, 0] * early, pdv[p, 1] * early, pdv[p, 2] * early, P[p, L.VX], P[p, L.VY], P[p, L.VZ])
     pdv[p, 0] = 0.0
     pdv[p, 1] = 0.0
     pdv[p, 2] = 0.0
     ptb[p] = INF
     pj[p] = -1
     count[p] += 1
+
+
+@leaf
+def book_relocation(acc, m, e, at_a, before, delta, v, tc):
+    r"""Book in the stress accumulators what an A event's committed velocities do not account for.
+
+    The Helfand moments :math:`\sum_p m_p\mathbf x_p\otimes\mathbf c_p` and :math:`\sum_p\mathbf x_pe_p` of the
+    committed velocities :math:`\mathbf c_p = \mathbf V + \boldsymbol\Delta_p` (physics.md §5.6) also grow by the
+    relocation :math:`\mathbf x^A_p - \mathbf x_p` at the A event and by the flight with :math:`\mathbf V` instead
+    of :math:`\mathbf c_p` until the B event: the displacement :math:`\mathbf x^A_p - \mathbf x_p - \boldsymbol\Delta_pt_c`
+    (an early B event gives back its share, :func:`execute_b`). The pair's positions and velocities
+    after the contact are those of the two-body solution, so the moments then equal the soft
+    system's.
+    """
+    ax = at_a[0] - before[0] - delta[0] * tc
+    ay = at_a[1] - before[1] - delta[1] * tc
+    az = at_a[2] - before[2] - delta[2] * tc
+    drift_flux(acc, m, e, ax, ay, az, v[0] + delta[0], v[1] + delta[1], v[2] + delta[2])
 
 
 @jit
@@ -230,7 +257,7 @@ def rebin(p, t, P, image, grid, lists, geo, mode, fp, cbuf):
 
 
 @jit
-def finish_contact(p, i, j, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd, bath_t, pairs):
+def finish_contact(p, i, j, t, part, acc, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd, bath_t, pairs):
     """Exception b) (physics.md §4.8): ``p``, still in a soft contact, meets a third body at ``t``.
 
     Its pending B event is executed now and, with post-collisional communication, that of its
@@ -238,10 +265,10 @@ def finish_contact(p, i, j, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, 
     """
     pj = emd.partner
     other = pj[p]
-    execute_b(p, t, P, count, emd, geo)
+    execute_b(p, t, part, acc, emd, geo)
     if ip[L.IP_EMD_COMM] and other != i and other != j and pj[other] == p:
-        execute_b(other, t, P, count, emd, geo)
-        repredict(np.int64(other), t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd.pending_until, bath_t, pairs)
+        execute_b(other, t, part, acc, emd, geo)
+        repredict(np.int64(other), t, part.rows, part.count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd.pending_until, bath_t, pairs)
 
 
 def _make_emd_contact(frictional):
@@ -267,7 +294,7 @@ def _make_emd_contact(frictional):
             cnt[L.C_EMD_EXC_B] += 1
             for p in (np.int64(i), np.int64(j)):
                 if is_pending(emd, p):
-                    finish_contact(p, i, j, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd, bath_t, pairs)
+                    finish_contact(p, i, j, t, part, acc, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd, bath_t, pairs)
         dx, dy, dz, gx, gy, gz = separation(P, i, j, t, geo)
         if exception_b and dx * gx + dy * gy + dz * gz >= 0.0:
             return CONTACT_DISCARDED
@@ -313,6 +340,8 @@ def _make_emd_contact(frictional):
         ei1 = committed_current(acc, mass, omega, inertia, i, work[6], work[7], turns)
         ej1 = committed_current(acc, mass, omega, inertia, j, work[6], work[8], turns)
         energy_virial(acc, work[0, 0] - work[1, 0], work[0, 1] - work[1, 1], work[0, 2] - work[1, 2], ei1 - ei0, ej1 - ej0)
+        book_relocation(acc, mass[i], ei1, work[4], work[0], work[7], work[6], tc)
+        book_relocation(acc, mass[j], ej1, work[5], work[1], work[8], work[6], tc)
         ptb[i] = t + tc
         ptb[j] = t + tc
         pj[i] = j

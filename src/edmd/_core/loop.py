@@ -250,13 +250,13 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well, grow
                     return L.ST_LOG_FULL
                 cnt[L.C_AUX] += 1
                 if emd_on and kind == L.AUX_B:
-                    execute_b(i, t, P, count, emd, geo)
+                    execute_b(i, t, part, acc, emd, geo)
                 elif (walls and kind >= L.AUX_WALL and kind < L.AUX_WALL_END) or (bath_on and kind == L.AUX_BATH):
                     # a wall or the bath changes the particle's velocity: as a third body, it ends a
                     # pending soft contact first (the bath acts on the committed velocity)
                     if emd_on and is_pending(emd, i):
                         cnt[L.C_EMD_EXC_B] += 1
-                        finish_contact(i, i, -1, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd, bath_t, pairs)
+                        finish_contact(i, i, -1, t, part, acc, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd, bath_t, pairs)
                     advance(P, i, t, geo)
                     integrate_kinetic(acc, t, geo, total_mass)
                     release(P, i, mass, acc, geo)  # (a rider on the vibrating wall flies on with its new velocity)

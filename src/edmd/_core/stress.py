@@ -25,7 +25,7 @@ and the collisional transfer :math:`\sum_{\rm coll}\tfrac12\mathbf r_{ij}(\Delta
 """
 
 from .jit import leaf
-from .layout import A_JE, A_JE_INT, A_KT, A_KT_INT, A_PX, A_PY, A_PZ, A_QV, A_VT, G_GX, G_GY, G_GZ, G_ON, VX, VY, VZ
+from .layout import A_JE, A_JE_INT, A_KT, A_KT_INT, A_PX, A_PY, A_PZ, A_QV, A_VIRIAL, A_VT, G_GX, G_GY, G_GZ, G_ON, VX, VY, VZ
 
 
 @leaf
@@ -127,3 +127,16 @@ def committed_current(acc, mass, omega, inertia, p, v, dv, spin):
     e *= 0.5
     energy_current(acc, 1.0, e, vx, vy, vz)
     return e
+
+
+@leaf
+def drift_flux(acc, m, e, ax, ay, az, cx, cy, cz):
+    r"""Book a displacement :math:`\mathbf a` of a particle of mass ``m``, energy ``e`` and committed
+    velocity :math:`\mathbf c` that its committed flight does not account for (eMD*'s relocation,
+    :func:`.emdstar.book_relocation`): :math:`\tfrac m2(\mathbf a\otimes\mathbf c + \mathbf c\otimes\mathbf a)` to the
+    virial tensor, :math:`m\,\mathbf a\cdot\mathbf c` to the scalar virial, :math:`e\,\mathbf a` to the energy transfer."""
+    _add_symmetric(acc, A_VT, ax, ay, az, cx, cy, cz, 0.5 * m)
+    acc[A_VIRIAL] += m * (ax * cx + ay * cy + az * cz)
+    acc[A_QV] += e * ax
+    acc[A_QV + 1] += e * ay
+    acc[A_QV + 2] += e * az

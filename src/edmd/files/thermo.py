@@ -85,7 +85,7 @@ def pressure_tensor(state: State, d_stress_integral: np.ndarray, dt: float) -> d
     for c, (a, b) in enumerate(TENSOR_AXES):
         if a < state.dim and b < state.dim:
             flow = float(p[a] * p[b]) / state.mass.sum()
-            out[f"pressure_{AXES[a]}{AXES[b]}"] = (float(d_stress_integral[c]) / dt - flow) / state.volume
+            out[f"pressure_{AXES[a]}{AXES[b]}"] = float((d_stress_integral[c] / dt - flow) / state.volume)
     return out
 
 
@@ -170,7 +170,7 @@ class Thermo(Observer):
             if tensor and last.stress_integral is not None:
                 row.update(pressure_tensor(state, totals.stress_integral - last.stress_integral, dt))
             if flux and last.energy_flux_integral is not None:
-                q = (totals.energy_flux_integral - last.energy_flux_integral) / (dt * state.volume)
+                q = (totals.energy_flux_integral - last.energy_flux_integral) / (dt * float(state.volume))
                 row.update({f"energy_flux_{AXES[k]}": float(q[k]) for k in range(state.dim)})
         row.update(sim.emd_counters())
         if sim.has_energy_input:
