@@ -293,3 +293,9 @@ def test_transport_prints_viscosity_and_diffusion_beside_enskog(tmp_path):
     assert (run / "viscosity.png").exists() and (run / "conductivity.png").exists()
     r = runner.invoke(app, ["transport", str(run), "--settle", "140", "--lag-max", "2"])
     assert r.exit_code == 2 and "too few" in r.output
+    # under gravity the energy flux is not kept: the other coefficients are still reported
+    cfg.write_text(cfg.read_text().replace("kT = 1.0\n", "kT = 1.0\ngravity = [0.0, 0.0, -0.01]\n").replace("[run]", "[walls]\naxes = [\"z\"]\n[run]").replace("150.0", "60.0"))
+    assert runner.invoke(app, ["run", str(cfg), "--out", str(run), "--force"]).exit_code == 0
+    r = runner.invoke(app, ["transport", str(run), "--settle", "10", "--lag-max", "1"])
+    assert r.exit_code == 2 and "thermal conductivity: the thermo table has no energy flux" in r.output.replace("\n", "")
+    assert "shear viscosity" in r.output and (run / "viscosity.png").exists()

@@ -133,3 +133,20 @@ def test_self_diffusion_of_hard_spheres_against_enskog():
     d = SelfDiffusion(lag_max=5.0, blocks=5).compute(frames)
     assert d.error < 0.03 * d.diffusion
     assert 1.05 < d.diffusion / d.enskog < 1.3
+
+
+def test_walled_axes_are_left_out():
+    """A box closed along z: walls take impulses that the pressure tensor does not hold, so the
+    viscosity uses the xy moments only and the conductivity the x and y fluxes."""
+    rng = np.random.default_rng(3)
+    state = edmd.lattice(27, 0.1, periodic=[True, True, False])
+    table = _table(rng.normal(0.0, 1.0, size=(4000, 3)), 0.1, 1.0, state.volume)
+    table["energy_flux_x"], table["energy_flux_y"] = table["pressure_xy"], table["pressure_xz"]
+    table["energy_flux_z"] = np.full(4000, 1e6)  # (would dominate if used)
+    v = ShearViscosity(lag_max=0.5).compute(table, state)
+    full = ShearViscosity(lag_max=0.5).compute(table, edmd.lattice(27, 0.1))
+    assert v.viscosity != full.viscosity
+    c = ThermalConductivity(lag_max=0.5).compute(table, state)
+    assert c.conductivity < 1.0
+    with pytest.raises(ValueError, match="two periodic axes"):
+        ShearViscosity(lag_max=0.5).compute(table, edmd.lattice(27, 0.1, periodic=[True, False, False]))

@@ -211,7 +211,8 @@ class _Einstein:
 class ShearViscosity(_Einstein):
     r"""Shear viscosity by Einstein–Helfand from a thermo table's pressure tensor (module doc).
 
-    The Helfand moments of the off-diagonal components (``xy, xz, yz``; 2D ``xy``) are averaged over
+    The Helfand moments of the off-diagonal components (``xy, xz, yz``; 2D ``xy``; those of
+    periodic axes only: walls take impulses that the pressure tensor does not hold) are averaged over
     every time origin and component; :math:`\eta` is the slope of their mean square against the lag,
     fitted over ``[fit_from, lag_max]`` and divided by :math:`2Vk_BT` (``T`` the mean temperature of
     the rows). Its error is the standard error of the same fit in ``blocks`` equal parts of the run.
@@ -235,8 +236,11 @@ class ShearViscosity(_Einstein):
     def compute(self, thermo, state: State) -> ShearViscosity:
         """From a :class:`~edmd.Thermo`, its table or a thermo CSV with the pressure tensor, and the
         run's ``state`` (volume, dimension, radii); returns ``self``."""
-        columns = [f"pressure_{c}" for c in (("xy",) if state.dim == 2 else ("xy", "xz", "yz"))]
-        increments, lags, fit = self._helfand(thermo, state, columns, "pressure tensor (DEM runs and vibrated beds do not keep it)")
+        pairs = [(a, b) for a, b in ((0, 1), (0, 2), (1, 2)) if b < state.dim and state.periodic[a] and state.periodic[b]]
+        if not pairs:
+            raise ValueError("the shear viscosity needs two periodic axes (walls take impulses that the pressure tensor does not hold)")
+        columns = [f"pressure_{'xyz'[a]}{'xyz'[b]}" for a, b in pairs]
+        increments, lags, fit = self._helfand(thermo, state, columns, "pressure tensor (DEM runs, vibrated beds and thermo tables continued from checkpoints of older versions have none)")
         scale = 2.0 * state.volume * self.temperature
         ms, self.viscosity, self.error = self._fit(increments, _helfand_msd, scale, lags, fit)
         self.running = self._running(ms, scale)
@@ -252,7 +256,7 @@ class ShearViscosity(_Einstein):
 class ThermalConductivity(_Einstein):
     r"""Thermal conductivity by Einstein–Helfand from a thermo table's energy flux (module doc).
 
-    The energy moments of the ``d`` components are averaged over every time origin and component;
+    The energy moments of the ``d`` components (periodic axes only) are averaged over every time origin and component;
     :math:`\lambda` is the slope of their mean square against the lag over ``[fit_from, lag_max]``,
     divided by :math:`2Vk_BT^2`, with block errors as :class:`ShearViscosity`. The energy flux is
     the heat flux only for equal masses at zero total momentum (``ValueError`` otherwise).
@@ -275,11 +279,14 @@ class ThermalConductivity(_Einstein):
         """From a :class:`~edmd.Thermo`, its table or a thermo CSV with the energy flux, and the run's ``state``; returns ``self``."""
         if not np.all(state.mass == state.mass[0]):
             raise ValueError("the thermal conductivity needs equal masses (the energy flux of a mixture carries enthalpy by diffusion)")
-        p = np.abs(state.momentum()).max()
+        axes_used = [k for k in range(state.dim) if state.periodic[k]]
+        if not axes_used:
+            raise ValueError("the thermal conductivity needs a periodic axis")
+        p = np.abs(state.momentum()[axes_used]).max()
         if p > 1e-9 * state.mass.sum() * math.sqrt(max(state.temperature(), 0.0) / state.mass[0]):
-            raise ValueError(f"the thermal conductivity needs zero total momentum (the state has |P| = {p:.3g}: the energy flux then convects)")
-        columns = [f"energy_flux_{a}" for a in "xyz"[: state.dim]]
-        increments, lags, fit = self._helfand(thermo, state, columns, "energy flux (kept without gravity, square wells or white noise)")
+            raise ValueError(f"the thermal conductivity needs zero total momentum along its axes (the state has |P| = {p:.3g}: the energy flux then convects)")
+        columns = [f"energy_flux_{'xyz'[k]}" for k in axes_used]
+        increments, lags, fit = self._helfand(thermo, state, columns, "energy flux (kept without gravity, square wells or white noise, and not in tables continued from checkpoints of older versions)")
         scale = 2.0 * state.volume * self.temperature**2
         ms, self.conductivity, self.error = self._fit(increments, _helfand_msd, scale, lags, fit)
         self.running = self._running(ms, scale)

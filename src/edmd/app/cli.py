@@ -273,20 +273,33 @@ def transport(
         for name in ("coefficient", "value", "error", "Enskog", "ratio"):
             table.add_column(name)
         options = {"t_min": settle, "lag_max": lag_max, "fit_from": fit_from, "blocks": blocks}
-        visc = ShearViscosity(**options).compute(run_dir / "thermo.csv", state)
-        cond = ThermalConductivity(**options).compute(run_dir / "thermo.csv", state)
-        for name, a, value in (("shear viscosity", visc, visc.viscosity), ("thermal conductivity", cond, cond.conductivity)):
-            table.add_row(name, f"{value:.6g}", f"{a.error:.2g}", f"{a.enskog:.6g}", f"{value / a.enskog:.4g}")
         frames = [s for s in iter_states(path, check_overlaps=False) if s.time > settle]
         if len(frames) > 2 and not np.isclose(frames[-1].time - frames[-2].time, frames[1].time - frames[0].time, rtol=1e-9):
             frames.pop()  # (the final frame a run always writes, off the grid of the others)
-        diff = SelfDiffusion(**options).compute(frames)
-        table.add_row("self-diffusion", f"{diff.diffusion:.6g}", f"{diff.error:.2g}", f"{diff.enskog:.6g}", f"{diff.diffusion / diff.enskog:.4g}")
-        console.print(table)
-        written = [save(a.plot(), run_dir / f"{name}.png").name for name, a in (("viscosity", visc), ("conductivity", cond))]
-        console.print(f"wrote {' and '.join(written)}")
     except (StateError, ValueError, OSError) as exc:
         _fail(str(exc))
+    coefficients = (
+        ("shear viscosity", "viscosity", lambda: ShearViscosity(**options).compute(run_dir / "thermo.csv", state)),
+        ("thermal conductivity", "conductivity", lambda: ThermalConductivity(**options).compute(run_dir / "thermo.csv", state)),
+        ("self-diffusion", "diffusion", lambda: SelfDiffusion(**options).compute(frames)),
+    )
+    problems, written = [], []
+    for name, attribute, compute in coefficients:  # each on its own: one that does not apply leaves the others
+        try:
+            a = compute()
+        except (StateError, ValueError, OSError) as exc:
+            problems.append(f"{name}: {exc}")
+            table.add_row(name, "-", "-", "-", "-")
+            continue
+        value = getattr(a, attribute)
+        table.add_row(name, f"{value:.6g}", f"{a.error:.2g}", f"{a.enskog:.6g}", f"{value / a.enskog:.4g}")
+        if attribute != "diffusion":
+            written.append(save(a.plot(), run_dir / f"{attribute}.png").name)
+    console.print(table)
+    if written:
+        console.print(f"wrote {' and '.join(written)}")
+    if problems:
+        _fail("; ".join(problems))
 
 
 def _impact_phases(run_dir: Path, settle: float):
