@@ -191,14 +191,20 @@ def test_run_says_when_it_compiles_its_loop(tmp_path, monkeypatch):
     assert not logging.getLogger("edmd.compile").handlers
 
 
+def _run(tmp_path, config: str, *options):
+    """Write ``config`` to a file and run it into ``tmp_path / "run"``; returns the file and the run directory."""
+    cfg, run = tmp_path / "c.toml", tmp_path / "run"
+    cfg.write_text(config)
+    assert runner.invoke(app, ["run", str(cfg), "--out", str(run), *options]).exit_code == 0
+    return cfg, run
+
+
 def test_steady_prints_blocked_averages_and_writes_a_profile(tmp_path):
-    cfg = tmp_path / "c.toml"
-    cfg.write_text(
+    _cfg, run = _run(
+        tmp_path,
         "[system]\ndim = 2\nn = 400\npacking_fraction = 0.1\nkT = 0.3\n[collision]\nrule = \"inelastic\"\ne_n = 0.8\n"
-        "[forcing]\nkind = \"white_noise\"\nxi0 = 0.5\ninterval = 0.05\n[run]\nuntil_time = 40.0\noutput_interval = 0.5\nprogress = false\n"
+        "[forcing]\nkind = \"white_noise\"\nxi0 = 0.5\ninterval = 0.05\n[run]\nuntil_time = 40.0\noutput_interval = 0.5\nprogress = false\n",
     )
-    run = tmp_path / "run"
-    assert runner.invoke(app, ["run", str(cfg), "--out", str(run)]).exit_code == 0
     r = runner.invoke(app, ["steady", str(run), "--settle", "10", "--profile", "y", "--bins", "4"])
     assert r.exit_code == 0, r.output
     assert "temperature" in r.output and "pressure" in r.output and "profile_y.csv" in r.output
@@ -280,13 +286,11 @@ def test_compress_squeezes_a_film_between_walls(tmp_path):
 
 
 def test_transport_prints_viscosity_and_diffusion_beside_enskog(tmp_path):
-    cfg = tmp_path / "c.toml"
-    cfg.write_text(
+    config = (
         "[system]\ndim = 3\nn = 108\npacking_fraction = 0.2618\nkT = 1.0\n[collision]\nrule = \"inelastic\"\ne_n = 1.0\n"
         "[run]\nuntil_time = 150.0\noutput_interval = 0.25\nprogress = false\n[output]\nplots = false\ncheckpoint = false\n"
     )
-    run = tmp_path / "run"
-    assert runner.invoke(app, ["run", str(cfg), "--out", str(run)]).exit_code == 0
+    _cfg, run = _run(tmp_path, config)
     r = runner.invoke(app, ["transport", str(run), "--settle", "10", "--lag-max", "2"])
     assert r.exit_code == 0, r.output
     assert all(name in r.output for name in ("shear viscosity", "thermal conductivity", "self-diffusion"))
@@ -294,8 +298,8 @@ def test_transport_prints_viscosity_and_diffusion_beside_enskog(tmp_path):
     r = runner.invoke(app, ["transport", str(run), "--settle", "140", "--lag-max", "2"])
     assert r.exit_code == 2 and "too few" in r.output
     # under gravity the energy flux is not kept: the other coefficients are still reported
-    cfg.write_text(cfg.read_text().replace("kT = 1.0\n", "kT = 1.0\ngravity = [0.0, 0.0, -0.01]\n").replace("[run]", "[walls]\naxes = [\"z\"]\n[run]").replace("150.0", "60.0"))
-    assert runner.invoke(app, ["run", str(cfg), "--out", str(run), "--force"]).exit_code == 0
+    config = config.replace("kT = 1.0\n", "kT = 1.0\ngravity = [0.0, 0.0, -0.01]\n").replace("[run]", "[walls]\naxes = [\"z\"]\n[run]")
+    _run(tmp_path, config.replace("150.0", "60.0"), "--force")
     r = runner.invoke(app, ["transport", str(run), "--settle", "10", "--lag-max", "1"])
     assert r.exit_code == 2 and "thermal conductivity: the thermo table has no energy flux" in r.output.replace("\n", "")
     assert "shear viscosity" in r.output and (run / "viscosity.png").exists()

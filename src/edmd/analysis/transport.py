@@ -192,9 +192,21 @@ class _Einstein:
         self.packing_fraction = state.packing_fraction
         return increments, lags, fit
 
-    def _running(self, ms: np.ndarray, scale: float) -> np.ndarray:
+    def _coefficient(self, thermo, state: State, columns: list[str], what: str, power: int, reference) -> float:
+        """The Helfand fit of ``columns`` scaled by :math:`2Vk_BT^{\\rm power}`; sets ``error``, ``running``, ``enskog``."""
+        increments, lags, fit = self._helfand(thermo, state, columns, what)
+        scale = 2.0 * state.volume * self.temperature**power
+        ms, value, self.error = self._fit(increments, _helfand_msd, scale, lags, fit)
         with np.errstate(invalid="ignore", divide="ignore"):
-            return ms / (scale * self.lag_times)
+            self.running = ms / (scale * self.lag_times)
+        self.enskog = self._enskog(reference, state)
+        return value
+
+    def _enskog(self, reference, state: State) -> float:
+        """``reference`` (an Enskog coefficient) at the state's packing fraction and the mean temperature (``nan``: polydisperse)."""
+        if not _monodisperse(state):
+            return math.nan
+        return reference(state.packing_fraction, state.dim, 2.0 * state.radius[0], state.mass[0], self.temperature)
 
     def _plot(self, value: float, error: float, enskog: float, symbol: str, name: str, ax=None):
         ax = axes(ax)
@@ -240,12 +252,8 @@ class ShearViscosity(_Einstein):
         if not pairs:
             raise ValueError("the shear viscosity needs two periodic axes (walls take impulses that the pressure tensor does not hold)")
         columns = [f"pressure_{'xyz'[a]}{'xyz'[b]}" for a, b in pairs]
-        increments, lags, fit = self._helfand(thermo, state, columns, "pressure tensor (DEM runs, vibrated beds and thermo tables continued from checkpoints of older versions have none)")
-        scale = 2.0 * state.volume * self.temperature
-        ms, self.viscosity, self.error = self._fit(increments, _helfand_msd, scale, lags, fit)
-        self.running = self._running(ms, scale)
-        r = state.radius
-        self.enskog = enskog_viscosity(self.packing_fraction, state.dim, 2.0 * r[0], state.mass[0], self.temperature) if _monodisperse(state) else math.nan
+        what = "pressure tensor (DEM runs, vibrated beds and thermo tables continued from checkpoints of older versions have none)"
+        self.viscosity = self._coefficient(thermo, state, columns, what, 1, enskog_viscosity)
         return self
 
     def plot(self, ax=None):
@@ -286,12 +294,8 @@ class ThermalConductivity(_Einstein):
         if p > 1e-9 * state.mass.sum() * math.sqrt(max(state.temperature(), 0.0) / state.mass[0]):
             raise ValueError(f"the thermal conductivity needs zero total momentum along its axes (the state has |P| = {p:.3g}: the energy flux then convects)")
         columns = [f"energy_flux_{'xyz'[k]}" for k in axes_used]
-        increments, lags, fit = self._helfand(thermo, state, columns, "energy flux (kept without gravity, square wells or white noise, and not in tables continued from checkpoints of older versions)")
-        scale = 2.0 * state.volume * self.temperature**2
-        ms, self.conductivity, self.error = self._fit(increments, _helfand_msd, scale, lags, fit)
-        self.running = self._running(ms, scale)
-        r = state.radius
-        self.enskog = enskog_conductivity(self.packing_fraction, state.dim, 2.0 * r[0], state.mass[0], self.temperature) if _monodisperse(state) else math.nan
+        what = "energy flux (kept without gravity, square wells or white noise, and not in tables continued from checkpoints of older versions)"
+        self.conductivity = self._coefficient(thermo, state, columns, what, 2, enskog_conductivity)
         return self
 
     def plot(self, ax=None):
@@ -345,6 +349,5 @@ class SelfDiffusion(_Einstein):
         _dt, lags, fit = self._lags(np.array(times), "frames")
         self.msd, self.diffusion, self.error = self._fit(np.stack(positions), lambda r, _lags: msd_window(r), 2.0 * last.dim, lags, fit)
         self.temperature = float(np.mean(temperatures))
-        r = last.radius
-        self.enskog = enskog_diffusion(last.packing_fraction, last.dim, 2.0 * r[0], last.mass[0], self.temperature) if _monodisperse(last) else math.nan
+        self.enskog = self._enskog(enskog_diffusion, last)
         return self
