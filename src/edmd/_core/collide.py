@@ -28,7 +28,7 @@ from .layout import NORMAL_CONST, TANGENT_COULOMB, TANGENT_SMOOTH
 from .contact import MODEL_HERTZ, contact_scales
 from .jit import hot, leaf
 from .predict import wrap3
-from .stress import energy_virial, impulse_tensor, particle_current, particle_energy, virial_tensor
+from .stress import impulse_tensor, pair_energy_current, particle_current, particle_energy, virial_tensor
 from .twobody import dashpot_central
 from .wallmotion import start_ride, sticks, wall_velocity
 
@@ -113,14 +113,14 @@ def pair_impulse(P, mass, omega, inertia, i, j, jn, nx, ny, nz, r, acc):
     virial_tensor(acc, r * nx, r * ny, r * nz, jn * nx, jn * ny, jn * nz)
     acc[L.A_VIRIAL] += r * jn
     turns = omega.shape[0] != 0
-    ei0 = particle_current(acc, P, mass, omega, inertia, i, turns, -1.0)
-    ej0 = particle_current(acc, P, mass, omega, inertia, j, turns, -1.0)
+    ei0 = particle_energy(P, mass, omega, inertia, i, turns)
+    ej0 = particle_energy(P, mass, omega, inertia, j, turns)
     for k, nk in ((0, nx), (1, ny), (2, nz)):
         P[i, L.VX + k] += jn / mi * nk
         P[j, L.VX + k] -= jn / mj * nk
-    ei1 = particle_current(acc, P, mass, omega, inertia, i, turns, 1.0)
-    ej1 = particle_current(acc, P, mass, omega, inertia, j, turns, 1.0)
-    energy_virial(acc, r * nx, r * ny, r * nz, ei1 - ei0, ej1 - ej0)
+    ei1 = particle_energy(P, mass, omega, inertia, i, turns)
+    ej1 = particle_energy(P, mass, omega, inertia, j, turns)
+    pair_energy_current(acc, P, i, j, ei0, ej0, ei1, ej1, jn / mi * nx, jn / mi * ny, jn / mi * nz, -jn / mj * nx, -jn / mj * ny, -jn / mj * nz, r * nx, r * ny, r * nz)
 
 
 @leaf
@@ -186,13 +186,13 @@ def collide_pair(t, P, mass, omega, inertia, tlast, i, j, geo, fp, ip, etab, acc
     if spin:
         k0 = particle_energy(P, mass, omega, inertia, i, False) + particle_energy(P, mass, omega, inertia, j, False)
     turns = spin or omega.shape[0] != 0  # (e_i holds the spin's energy whenever spins are kept)
-    ei0 = particle_current(acc, P, mass, omega, inertia, i, turns, -1.0)
-    ej0 = particle_current(acc, P, mass, omega, inertia, j, turns, -1.0)
+    ei0 = particle_energy(P, mass, omega, inertia, i, turns)
+    ej0 = particle_energy(P, mass, omega, inertia, j, turns)
     _kick(P, omega, inertia, i, jx, jy, jz, nx, ny, nz, 1.0 / mi, ri, spin)
     _kick(P, omega, inertia, j, jx, jy, jz, nx, ny, nz, -1.0 / mj, rj, spin)
-    ei1 = particle_current(acc, P, mass, omega, inertia, i, turns, 1.0)
-    ej1 = particle_current(acc, P, mass, omega, inertia, j, turns, 1.0)
-    energy_virial(acc, r * nx, r * ny, r * nz, ei1 - ei0, ej1 - ej0)
+    ei1 = particle_energy(P, mass, omega, inertia, i, turns)
+    ej1 = particle_energy(P, mass, omega, inertia, j, turns)
+    pair_energy_current(acc, P, i, j, ei0, ej0, ei1, ej1, jx / mi, jy / mi, jz / mi, -jx / mj, -jy / mj, -jz / mj, r * nx, r * ny, r * nz)
     if spin:
         dk = particle_energy(P, mass, omega, inertia, i, False) + particle_energy(P, mass, omega, inertia, j, False) - k0
         lost = ei0 + ej0 - ei1 - ej1  # (spin: turns)

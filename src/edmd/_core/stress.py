@@ -140,3 +140,16 @@ def drift_flux(acc, m, e, ax, ay, az, cx, cy, cz):
     acc[A_QV] += e * ax
     acc[A_QV + 1] += e * ay
     acc[A_QV + 2] += e * az
+
+
+@leaf
+def pair_energy_current(acc, P, i, j, ei0, ej0, ei1, ej1, dix, diy, diz, djx, djy, djz, rx, ry, rz):
+    r"""The energy current after a collision of ``i`` and ``j`` (rows already kicked by the velocity
+    changes :math:`\Delta\mathbf v_{i,j}`; energies before and after): the running
+    :math:`\sum e\mathbf v` and the transfer :math:`\tfrac12\mathbf r_{ij}(\Delta e_i - \Delta e_j)`, each
+    accumulator written once."""
+    h = 0.5 * ((ei1 - ei0) - (ej1 - ej0))
+    for k, dvi, dvj, rk in ((0, dix, djx, rx), (1, diy, djy, ry), (2, diz, djz, rz)):
+        vi, vj = P[i, VX + k], P[j, VX + k]
+        acc[A_JE + k] += ei1 * vi - ei0 * (vi - dvi) + ej1 * vj - ej0 * (vj - dvj)
+        acc[A_QV + k] += rk * h
