@@ -61,7 +61,7 @@ def test_viscosity_and_conductivity_of_a_hard_sphere_fluid_are_near_enskog(dim):
     of Enskog's times the ratios molecular dynamics finds there: 1.0-1.1 for the viscosity of
     spheres, 1.0-1.05 for their conductivity (Alder, Gass & Wainwright, J. Chem. Phys. 53, 3813
     (1970)), about 1 for disks (Gass, J. Chem. Phys. 54, 1898 (1971)); lags of 1.5-3 (about 5-10 and
-    10-20 mean free times) past the decay of the correlations. tests/validation/test_transport.py
+    10-20 mean free times) past the decay of the correlations. tests/validation/test_transport_validation.py
     pins the viscosity in longer runs."""
     eta, bands = (0.5, {"viscosity": (0.95, 1.1), "conductivity": (0.95, 1.1)}) if dim == 2 else (math.pi * 0.5 / 6, {"viscosity": (1.0, 1.1), "conductivity": (1.0, 1.05)})
     sim = edmd.Simulation(edmd.maxwell_boltzmann(edmd.lattice(256, eta, dim=dim), 1.0, seed=4))
