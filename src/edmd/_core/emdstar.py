@@ -50,22 +50,13 @@ def is_pending(emd, p):
 
 
 @hot
-def execute_b(p, t, part, acc, emd, geo):
-    r"""Event B of ``p`` at time ``t`` (on schedule, or early in exception b): :math:`\mathbf v \leftarrow \mathbf v(t) + \boldsymbol\Delta`.
-
-    Early by :math:`\tau = t_B - t`, the particle flew with the pair's velocity for less than the
-    A event booked in the stress accumulators: :func:`.stress.drift_flux` books the difference,
-    :math:`\boldsymbol\Delta\tau` (see :func:`book_relocation`)."""
-    P, mass, omega, inertia, _image, count, _tlast = part
+def execute_b(p, t, P, count, emd, geo):
+    r"""Event B of ``p`` at time ``t`` (on schedule, or early in exception b): :math:`\mathbf v \leftarrow \mathbf v(t) + \boldsymbol\Delta`."""
     pdv, ptb, pj = emd.pending_dv, emd.pending_until, emd.partner
     advance(P, p, t, geo)
     P[p, L.VX] += pdv[p, 0]
     P[p, L.VY] += pdv[p, 1]
     P[p, L.VZ] += pdv[p, 2]
-    early = ptb[p] - t
-    if early > 0.0:
-        e = particle_energy(P, mass, omega, inertia, p, omega.shape[0] != 0)
-        drift_flux(acc, mass[p], e, pdv[p, 0] * early, pdv[p, 1] * early, pdv[p, 2] * early, P[p, L.VX], P[p, L.VY], P[p, L.VZ])
     pdv[p, 0] = 0.0
     pdv[p, 1] = 0.0
     pdv[p, 2] = 0.0
@@ -82,7 +73,7 @@ def book_relocation(acc, m, e, at_a, before, delta, v, tc):
     committed velocities :math:`\mathbf c_p = \mathbf V + \boldsymbol\Delta_p` (physics.md §5.6) also grow by the
     relocation :math:`\mathbf x^A_p - \mathbf x_p` at the A event and by the flight with :math:`\mathbf V` instead
     of :math:`\mathbf c_p` until the B event: the displacement :math:`\mathbf x^A_p - \mathbf x_p - \boldsymbol\Delta_pt_c`
-    (an early B event gives back its share, :func:`execute_b`). The pair's positions and velocities
+    (an early B event gives back its share, :func:`_early_b`). The pair's positions and velocities
     after the contact are those of the two-body solution, so the moments then equal the soft
     system's.
     """
@@ -265,10 +256,24 @@ def finish_contact(p, i, j, t, part, acc, ev, q, grid, lists, geo, mode, fp, ip,
     """
     pj = emd.partner
     other = pj[p]
-    execute_b(p, t, part, acc, emd, geo)
+    _early_b(p, t, part, acc, emd, geo)
     if ip[L.IP_EMD_COMM] and other != i and other != j and pj[other] == p:
-        execute_b(other, t, part, acc, emd, geo)
+        _early_b(other, t, part, acc, emd, geo)
         repredict(np.int64(other), t, part.rows, part.count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd.pending_until, bath_t, pairs)
+
+
+@jit
+def _early_b(p, t, part, acc, emd, geo):
+    r"""The B event of ``p`` early, at ``t`` (exception b). By :math:`\tau = t_B - t` the particle flew
+    with the pair's velocity for less than its A event booked in the stress accumulators:
+    :func:`.stress.drift_flux` gives back :math:`\boldsymbol\Delta\tau` (see :func:`book_relocation`)."""
+    P, mass, omega, inertia, _image, count, _tlast = part
+    pdv = emd.pending_dv
+    early = emd.pending_until[p] - t
+    dx, dy, dz = pdv[p, 0] * early, pdv[p, 1] * early, pdv[p, 2] * early
+    execute_b(p, t, P, count, emd, geo)
+    e = particle_energy(P, mass, omega, inertia, p, omega.shape[0] != 0)
+    drift_flux(acc, mass[p], e, dx, dy, dz, P[p, L.VX], P[p, L.VY], P[p, L.VZ])
 
 
 def _make_emd_contact(frictional):

@@ -250,7 +250,7 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well, grow
                     return L.ST_LOG_FULL
                 cnt[L.C_AUX] += 1
                 if emd_on and kind == L.AUX_B:
-                    execute_b(i, t, part, acc, emd, geo)
+                    execute_b(i, t, P, count, emd, geo)
                 elif (walls and kind >= L.AUX_WALL and kind < L.AUX_WALL_END) or (bath_on and kind == L.AUX_BATH):
                     # a wall or the bath changes the particle's velocity: as a third body, it ends a
                     # pending soft contact first (the bath acts on the committed velocity)
