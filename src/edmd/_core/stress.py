@@ -62,14 +62,15 @@ def virial_tensor(acc, rx, ry, rz, jx, jy, jz):
 
 
 @leaf
-def free_fall_tensor(acc, tau, geo, total_mass):
+def free_fall_fluxes(acc, tau, geo, total_mass):
     r"""Advance the kinetic tensor and its integral over ``tau`` between events, with the total
     momentum :math:`\mathbf P` before it (:func:`.wallmotion.free_fall` then advances it): under
     gravity :math:`\mathsf K(\tau) = \mathsf K_0 + (\mathbf G\otimes\mathbf P + \mathbf P\otimes\mathbf G)\tau
-    + M\,\mathbf G\otimes\mathbf G\,\tau^2`, integrated exactly."""
+    + M\,\mathbf G\otimes\mathbf G\,\tau^2`, integrated exactly; and the integral of the energy current,
+    constant between events without gravity (it is not reported under gravity)."""
     for c in range(6):
         acc[A_KT_INT + c] += acc[A_KT + c] * tau
-    for k in range(3):  # (constant in free flight; not reported under gravity)
+    for k in range(3):
         acc[A_JE_INT + k] += acc[A_JE + k] * tau
     if geo[G_ON] != 0.0:
         gx, gy, gz = geo[G_GX], geo[G_GY], geo[G_GZ]
@@ -81,13 +82,19 @@ def free_fall_tensor(acc, tau, geo, total_mass):
 
 
 @leaf
-def particle_energy(P, mass, omega, inertia, i, spin):
-    """Kinetic energy of particle ``i``, with its rotational energy if ``spin`` (otherwise the
-    spins and moments of inertia are not read: their arrays have size 0 in smooth runs)."""
-    e = mass[i] * (P[i, VX] ** 2 + P[i, VY] ** 2 + P[i, VZ] ** 2)
+def _energy(mass, omega, inertia, i, vx, vy, vz, spin):
+    """Kinetic energy of particle ``i`` moving with ``v``, with its rotational energy if ``spin``
+    (otherwise the spins and moments of inertia are not read: their arrays have size 0 in smooth runs)."""
+    e = mass[i] * (vx * vx + vy * vy + vz * vz)
     if spin:
         e += inertia[i] * (omega[i, 0] ** 2 + omega[i, 1] ** 2 + omega[i, 2] ** 2)
     return 0.5 * e
+
+
+@leaf
+def particle_energy(P, mass, omega, inertia, i, spin):
+    """Kinetic energy of particle ``i`` (its row's velocity), with its rotational energy if ``spin``."""
+    return _energy(mass, omega, inertia, i, P[i, VX], P[i, VY], P[i, VZ], spin)
 
 
 @leaf
@@ -121,10 +128,7 @@ def committed_current(acc, mass, omega, inertia, p, v, dv, spin):
     r"""Add the :math:`e_p\mathbf v_p` of particle ``p`` with the committed velocity ``v + dv`` (an
     eMD* pair moving with ``v`` until its B event) to the running energy current; returns :math:`e_p`."""
     vx, vy, vz = v[0] + dv[0], v[1] + dv[1], v[2] + dv[2]
-    e = mass[p] * (vx * vx + vy * vy + vz * vz)
-    if spin:
-        e += inertia[p] * (omega[p, 0] ** 2 + omega[p, 1] ** 2 + omega[p, 2] ** 2)
-    e *= 0.5
+    e = _energy(mass, omega, inertia, p, vx, vy, vz, spin)
     energy_current(acc, 1.0, e, vx, vy, vz)
     return e
 

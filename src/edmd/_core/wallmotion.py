@@ -29,7 +29,7 @@ from numba import types
 from numba.extending import overload
 
 from .jit import jit, leaf
-from .stress import free_fall_tensor
+from .stress import free_fall_fluxes
 from .layout import A_ENERGY_INPUT, A_KE, A_KE_INT, A_LAST_T, A_PX, A_PY, A_PZ, A_RIDE_MASS, A_WALL, G_GX, G_GY, G_GZ, G_WALL_A, G_WALL_AXIS, G_WALL_FACE, G_WALL_OMEGA, G_WALL_PHASE, G_WALL_STICK, G_WALL_WAVE, NO_MOVING_WALL, R, RIDE, ROW, VX, WAVE_SINE, WAVE_TRIANGLE, X
 
 TWO_PI = 2.0 * math.pi
@@ -337,7 +337,7 @@ def free_fall(acc, tau, geo, total_mass, k, held):
     mg2 = total_mass * (geo[G_GX] ** 2 + geo[G_GY] ** 2 + geo[G_GZ] ** 2) - held * geo[G_GX + k] ** 2
     acc[A_KE_INT] += acc[A_KE] * tau + 0.5 * gp * tau * tau + mg2 * tau * tau * tau / 6.0
     acc[A_KE] += gp * tau + 0.5 * mg2 * tau * tau
-    free_fall_tensor(acc, tau, geo, total_mass)  # (not reported in runs with a vibrating wall)
+    free_fall_fluxes(acc, tau, geo, total_mass)  # (not reported in runs with a vibrating wall)
     for m in range(3):
         acc[A_PX + m] += (total_mass - (held if m == k else 0.0)) * geo[G_GX + m] * tau
 

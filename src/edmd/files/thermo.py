@@ -59,6 +59,12 @@ def pressure(state: State, d_kinetic_integral: float, d_virial: float, dt: float
     return (kin + d_virial / dt) / (state.dim * state.volume)
 
 
+def tensor_components(dim: int) -> list[tuple[int, str]]:
+    """The stress accumulators' components a ``dim``-dimensional system has: ``(index, "xy")`` pairs
+    (:data:`edmd._core.layout.TENSOR` order; 2D ``xx, yy, xy``)."""
+    return [(c, AXES[a] + AXES[b]) for c, (a, b) in enumerate(TENSOR_AXES) if max(a, b) < dim]
+
+
 def pressure_tensor(state: State, d_stress_integral: np.ndarray, dt: float) -> dict[str, float]:
     r"""The pressure tensor over an interval from the increment of :attr:`Totals.stress_integral`.
 
@@ -82,10 +88,10 @@ def pressure_tensor(state: State, d_stress_integral: np.ndarray, dt: float) -> d
     """
     p = state.momentum()
     out = {}
-    for c, (a, b) in enumerate(TENSOR_AXES):
-        if a < state.dim and b < state.dim:
-            flow = float(p[a] * p[b]) / state.mass.sum()
-            out[f"pressure_{AXES[a]}{AXES[b]}"] = float((d_stress_integral[c] / dt - flow) / state.volume)
+    for c, name in tensor_components(state.dim):
+        a, b = TENSOR_AXES[c]
+        flow = float(p[a] * p[b]) / state.mass.sum()
+        out[f"pressure_{name}"] = float((d_stress_integral[c] / dt - flow) / state.volume)
     return out
 
 
@@ -155,7 +161,7 @@ class Thermo(Observer):
             row[f"wall_pressure_{AXES[k]}"] = math.nan
         tensor = self._tensor is not False and totals.stress_integral is not None
         if tensor:
-            row.update(dict.fromkeys(pressure_tensor(state, np.zeros(6), 1.0), math.nan))
+            row.update({f"pressure_{name}": math.nan for _c, name in tensor_components(state.dim)})
         flux = self._flux is not False and totals.energy_flux_integral is not None
         if flux:
             row.update({f"energy_flux_{AXES[k]}": math.nan for k in range(state.dim)})
