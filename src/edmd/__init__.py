@@ -23,6 +23,7 @@ from .files.thermo import Thermo, read_thermo
 from .physics.thermostats import Andersen, WhiteNoise
 from .physics.vibration import VibratingWall
 from .physics.wells import SquareWell
+from .physics.shear import Shear
 from .physics.growth import Growth
 from .run.compress import Compression, compress, compress_film, compression
 from .files.trajectory import Trajectory, read_state, write_state
@@ -44,6 +45,7 @@ __all__ = [
     "Hertz",
     "LinearDashpot",
     "Observer",
+    "Shear",
     "Simulation",
     "State",
     "StateError",

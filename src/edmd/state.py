@@ -104,6 +104,9 @@ class State:
         pending_partner: ``(N,)`` partner of the pending contact (``-1``: none).
         riding: ``(N,)`` whether each particle rides on the vibrating wall (the sticking
             solution, :class:`edmd.VibratingWall`; ``False`` by default).
+        shear_offset: Lees-Edwards boundaries (:class:`edmd.Shear`): the x displacement of the
+            periodic image above the box (at :math:`y + L_y`), which slides at :math:`\dot\gamma L_y`;
+            0 by default (the plain periodic images). Overlaps and distances use it.
         captured_pairs: ``(M, 2)`` pairs inside each other's square well (:class:`edmd.SquareWell`),
             each pair once as ``(i, j)``, ``i < j``, sorted; ``None``: not recorded (a square-well
             run then captures the pairs closer than the well's edge).
@@ -140,6 +143,7 @@ class State:
     pending_partner: np.ndarray | None = None
     captured_pairs: np.ndarray | None = None
     riding: np.ndarray | None = None
+    shear_offset: float = 0.0
     check_overlaps: dataclasses.InitVar[bool] = True
 
     def __post_init__(self, check_overlaps: bool = True):
@@ -178,6 +182,7 @@ class State:
         if riding.shape != (n,) or not (riding.dtype == bool or np.all((riding == 0) | (riding == 1))):
             raise StateError(f"riding must be {n} booleans, got {riding.dtype} {riding.shape}")
         self.riding = riding if riding.dtype == bool else riding.astype(bool)
+        self._set_shear_offset(d)
         self._set_pending(n, d)
         self._set_captured(n)
         self._check_values()
@@ -198,9 +203,18 @@ class State:
         n, d = fields["position"].shape
         state.pending_velocity, state.pending_until, state.pending_partner = _no_pending(n, d)
         state.captured_pairs = None
+        state.shear_offset = 0.0
         for name, value in fields.items():
             setattr(state, name, value)
         return state
+
+    def _set_shear_offset(self, d):
+        offset = float(self.shear_offset)
+        if not math.isfinite(offset):
+            raise StateError(f"shear_offset is not finite: {offset}")
+        if offset != 0.0 and (d < 2 or not (self.periodic[0] and self.periodic[1])):
+            raise StateError("shear_offset (Lees-Edwards images) needs periodic x and y axes")
+        self.shear_offset = offset
 
     def _set_captured(self, n):
         if self.captured_pairs is None:
@@ -302,6 +316,9 @@ class State:
             True
         """
         d = self.position[i] - self.position[j]
+        if self.shear_offset != 0.0:  # the images above and below slide along x (Lees-Edwards)
+            d = np.array(d, float)
+            d[..., 0] -= np.round(d[..., 1] / self.box[1]) * self.shear_offset
         d = d - np.where(self.periodic, self.box * np.round(d / self.box), 0.0)
         return np.sqrt(np.sum(d * d, axis=-1)) / (self.radius[i] + self.radius[j])
 
@@ -311,7 +328,8 @@ class State:
         sigma_max = 2.0 * float(self.radius.max())
         nc = grid_shape(box, np.r_[self.periodic, [False] * (3 - self.dim)], sigma_max, self.n)
         grid = new_grid(self.n, box, nc)
-        i, j, d = worst_overlap(self.points, self.radius, make_geo(box, half), grid, rel_tol)
+        shear = None if self.shear_offset == 0.0 else (0.0, self.shear_offset)
+        i, j, d = worst_overlap(self.points, self.radius, make_geo(box, half, shear=shear), grid, rel_tol)
         return None if i < 0 else (int(i), int(j), float(d))
 
     def check_no_overlap(self, rel_tol: float = OVERLAP_TOLERANCE):

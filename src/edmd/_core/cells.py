@@ -17,9 +17,12 @@ ensures it, measured by the brute-force tests).
 import math
 
 import numpy as np
+from numba.extending import overload
+
 from .jit import jit, leaf
 from .bundles import Grid
 
+from .images import sheared, sheared_type
 from .predict import INF, gap_time
 
 
@@ -142,6 +145,9 @@ def cell_block(grid, c, geo, out, axis, step):
     only cells whose particles were not candidates before (physics.md §1.4: the newly adjacent
     layer of :math:`3^{d-1}` cells).
     """
+    n = sheared_block(grid, c, geo, out, axis, step)
+    if n >= 0:
+        return n
     gi = grid.shape
     nx, ny, nz = gi[0], gi[1], gi[2]
     cz = c % nz
@@ -167,6 +173,64 @@ def cell_block(grid, c, geo, out, axis, step):
                 out[n] = (x2 * ny + y2) * nz + z2
                 n += 1
     return n
+
+
+@leaf
+def _sheared_block(grid, c, geo, out, axis, step):
+    gi = grid.shape
+    nx, ny, nz = gi[0], gi[1], gi[2]
+    cz = c % nz
+    cy = (c // nz) % ny
+    cx = c // (nz * ny)
+    pz = geo[5] < INF
+    lox, hix = _offsets(0, nx, axis, step)
+    loy, hiy = _offsets(1, ny, axis, step)
+    loz, hiz = _offsets(2, nz, axis, step)
+    n = 0
+    for oy in range(loy, hiy + 1):
+        y2 = _shift(cy, oy, ny, True)
+        across = y2 != cy + oy
+        if across and axis == 0:  # (the whole row across is adjacent already)
+            continue
+        x0, x1 = (0, nx - 1) if across else (lox, hix)
+        for ox in range(x0, x1 + 1):
+            x2 = ox if across else _shift(cx, ox, nx, True)
+            for oz in range(loz, hiz + 1):
+                z2 = _shift(cz, oz, nz, pz)
+                if z2 < 0:
+                    continue
+                out[n] = (x2 * ny + y2) * nz + z2
+                n += 1
+    return n
+
+
+def sheared_block(grid, c, geo, out, axis, step):
+    """:func:`cell_block` in a sheared box (Lees-Edwards, :mod:`.images`), or -1 in another.
+
+    The row of cells across a sheared y face slides with the images, so every cell of it (at the
+    neighbouring z layers) is a neighbour of a cell on the face, at all times: the adjacency does
+    not change as the offset moves, and no event is needed when it does. A crossing along x on
+    the face reveals nothing new across it. ``out`` holds :func:`cells_buffer_size` cells.
+    """
+    return _sheared_block(grid, c, geo, out, axis, step) if sheared(geo) else -1
+
+
+@overload(sheared_block, inline="always")
+def _sheared_block_hook(grid, c, geo, out, axis, step):
+    if sheared_type(geo):
+        return lambda grid, c, geo, out, axis, step: _sheared_block(grid, c, geo, out, axis, step)
+    return lambda grid, c, geo, out, axis, step: -1
+
+
+def cells_buffer_size(nc, shear: bool) -> int:
+    """Cells a walk may visit at once (:func:`cell_block`): 27, or with shear the two rows of 3 x 3
+    beside a face and the whole row across it.
+
+    Example:
+        >>> cells_buffer_size((10, 10, 10), False), cells_buffer_size((10, 10, 10), True)
+        (27, 48)
+    """
+    return max(27, 18 + 3 * int(nc[0])) if shear else 27
 
 
 @leaf

@@ -27,19 +27,20 @@ from . import layout as L
 from .layout import NORMAL_CONST, TANGENT_COULOMB, TANGENT_SMOOTH
 from .contact import MODEL_HERTZ, contact_scales
 from .jit import hot, leaf
-from .predict import wrap3
-from .stress import impulse_tensor, pair_energy_current, particle_current, particle_energy, virial_tensor
+from .images import flow_speed, shear_image
+from .stress import impulse_shear_work, impulse_tensor, pair_energy_current, particle_current, particle_energy, virial_tensor
 from .twobody import dashpot_central
 from .wallmotion import start_ride, sticks, wall_velocity
 
 
 @leaf
 def contact_normal(P, i, j, geo):
-    """Unit normal from ``j`` to ``i`` and the centre distance (minimum image)."""
-    dx, dy, dz = wrap3(P[i, L.X] - P[j, L.X], P[i, L.Y] - P[j, L.Y], P[i, L.Z] - P[j, L.Z], geo)
+    """Unit normal from ``j`` to ``i``, the centre distance (minimum image; rows streamed to the
+    same time) and the change of the relative x velocity that goes with the image (shear, :mod:`.images`)."""
+    dx, dy, dz, ux = shear_image(P[i, L.X] - P[j, L.X], P[i, L.Y] - P[j, L.Y], P[i, L.Z] - P[j, L.Z], P[i, L.T], geo)
     r = math.sqrt(dx * dx + dy * dy + dz * dz)
     inv = 1.0 / r
-    return dx * inv, dy * inv, dz * inv, r
+    return dx * inv, dy * inv, dz * inv, r, ux
 
 
 @leaf
@@ -157,9 +158,9 @@ def collide_pair(t, P, mass, omega, inertia, tlast, i, j, geo, fp, ip, etab, acc
     Adds :math:`\\mathbf r_{ij}\\cdot\\mathbf J` to the virial, the kinetic-energy change to
     ``acc[A_KE]`` (translational) and the energy lost to ``acc[A_DISSIPATED]``.
     """
-    nx, ny, nz, r = contact_normal(P, i, j, geo)
+    nx, ny, nz, r, ux = contact_normal(P, i, j, geo)
     spin = tangent != TANGENT_SMOOTH
-    gx = P[i, L.VX] - P[j, L.VX]
+    gx = P[i, L.VX] - P[j, L.VX] + ux
     gy = P[i, L.VY] - P[j, L.VY]
     gz = P[i, L.VZ] - P[j, L.VZ]
     gn = gx * nx + gy * ny + gz * nz
@@ -193,15 +194,16 @@ def collide_pair(t, P, mass, omega, inertia, tlast, i, j, geo, fp, ip, etab, acc
     ei1 = particle_energy(P, mass, omega, inertia, i, turns)
     ej1 = particle_energy(P, mass, omega, inertia, j, turns)
     pair_energy_current(acc, P, i, j, ei0, ej0, ei1, ej1, jx / mi, jy / mi, jz / mi, -jx / mj, -jy / mj, -jz / mj, r * nx, r * ny, r * nz)
-    if spin:
-        dk = particle_energy(P, mass, omega, inertia, i, False) + particle_energy(P, mass, omega, inertia, j, False) - k0
-        lost = ei0 + ej0 - ei1 - ej1  # (spin: turns)
+    if spin:  # (the rows' energies: across a sheared face, j's image moves with v_j - u_x)
+        dk = particle_energy(P, mass, omega, inertia, i, False) + particle_energy(P, mass, omega, inertia, j, False) - k0 + ux * jx
+        lost = ei0 + ej0 - ei1 - ej1 - ux * jx  # (spin: turns)
     else:  # smooth: physics.md §2.1, Delta E = -mu (1 - e^2) g_n^2 / 2, spins untouched
         dk = -0.5 * (1.0 - e * e) * gn * gn / inv_mu
         lost = -dk
     acc[L.A_VIRIAL] += r * (jx * nx + jy * ny + jz * nz)
     virial_tensor(acc, r * nx, r * ny, r * nz, jx, jy, jz)
-    impulse_tensor(acc, inv_mu, gx, gy, gz, jx, jy, jz)
+    impulse_tensor(acc, inv_mu, gx - flow_speed(r * ny, geo), gy, gz, jx, jy, jz)  # (peculiar under shear)
+    impulse_shear_work(acc, r * ny, jx, geo)
     acc[L.A_KE] += dk
     acc[L.A_DISSIPATED] += lost
     if ip[L.IP_TC]:
@@ -281,7 +283,8 @@ def collide_wall(t, P, mass, omega, inertia, tlast, i, axis, face, geo, fp, ip, 
         start_ride(P, i, axis, uw, mass, acc)
     particle_current(acc, P, mass, omega, inertia, i, turns, 1.0)
     acc[L.A_KE] += particle_energy(P, mass, omega, inertia, i, False) - k0
-    impulse_tensor(acc, inv_mu, vx, vy, vz, jx, jy, jz)  # (a new rider's is not reported)
+    impulse_tensor(acc, inv_mu, vx - flow_speed(P[i, L.Y], geo), vy, vz, jx, jy, jz)  # (a new rider's is not reported; peculiar under shear)
+    impulse_shear_work(acc, P[i, L.Y], jx, geo)
     acc[L.A_DISSIPATED] += e0 - e1
     acc[L.A_PX] += jx
     acc[L.A_PY] += jy

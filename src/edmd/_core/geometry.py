@@ -4,7 +4,7 @@ import numpy as np
 from .jit import jit_alloc
 
 from .cells import bin_all, cell_insert, cell_of_point, walk_around, walk_next
-from .predict import INF, wrap3
+from .predict import INF, shear_image, wrap3
 
 
 @jit_alloc
@@ -13,17 +13,17 @@ def close_pairs(pos, radius, geo, grid, scale):
 
     ``pos`` is ``(N, 3)`` (inside the box); ``grid`` must have cells of edge at least
     ``scale`` times the largest contact distance. ``(dx, dy, dz)`` is the minimum-image
-    ``pos[i] - pos[j]``.
+    ``pos[i] - pos[j]`` (in a sheared ``geo``, with the images' offset at local time 0).
     """
     n = pos.shape[0]
     bin_all(pos, geo, grid)
-    cbuf = np.empty(27, np.int32)
+    cbuf = np.empty(18 + 3 * max(grid.shape[0], 3), np.int32)  # (cells_buffer_size)
     ii, jj, dd = [], [], []
     for i in range(n):
         nc, s, j = walk_around(grid, grid.cell[i], geo, cbuf)
         while j >= 0:
             if j > i:
-                dx, dy, dz = wrap3(pos[i, 0] - pos[j, 0], pos[i, 1] - pos[j, 1], pos[i, 2] - pos[j, 2], geo)
+                dx, dy, dz, _ux = shear_image(pos[i, 0] - pos[j, 0], pos[i, 1] - pos[j, 1], pos[i, 2] - pos[j, 2], 0.0, geo)
                 sig = scale * (radius[i] + radius[j])
                 r2 = dx * dx + dy * dy + dz * dz
                 if r2 < sig * sig:

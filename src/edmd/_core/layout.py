@@ -127,6 +127,7 @@ ACCUMULATORS = (
     *(f"energy_current_{a}" for a in "xyz"),  # running sum_i e_i v_i (translational + rotational e_i)
     *(f"energy_current_integral_{a}" for a in "xyz"),  # its time integral
     *(f"energy_virial_{a}" for a in "xyz"),  # sum over collisions of r_ij (Delta E_i - Delta E_j) / 2
+    "shear_work",  # Lees-Edwards: work of the sliding boundaries on the peculiar motion (shear.py)
 )
 (
     A_VIRIAL, A_DISSIPATED, A_KE, A_KE_INT, A_LAST_T, A_PX, A_PY, A_PZ, A_NOW, A_BAD, A_EMD_VN, A_EMD_VT,
@@ -137,6 +138,7 @@ A_SEG_VIRIAL, A_SEG_KE_INT = ACCUMULATORS.index("segment_virial"), ACCUMULATORS.
 A_RIDE_MASS = ACCUMULATORS.index("ride_mass")
 A_KT, A_KT_INT, A_VT = (ACCUMULATORS.index(f"{name}_xx") for name in ("kinetic", "kinetic_integral", "virial"))
 A_JE, A_JE_INT, A_QV = (ACCUMULATORS.index(f"{name}_x") for name in ("energy_current", "energy_current_integral", "energy_virial"))
+A_SHEAR_WORK = ACCUMULATORS.index("shear_work")
 N_ACC = len(ACCUMULATORS)
 
 #: integer parameters (``ip`` array)
@@ -247,6 +249,10 @@ def pack_laws(laws, fp, ip, wall=False):
 # without a vibrating wall keeps its 10 entries, and walls.wall_params reads the wall's by type.)
 G_LX, G_LY, G_LZ, G_HX, G_HY, G_HZ, G_GX, G_GY, G_GZ, G_ON = range(10)
 G_WALL_AXIS, G_WALL_FACE, G_WALL_WAVE, G_WALL_A, G_WALL_OMEGA, G_WALL_PHASE, G_WALL_STICK = range(10, 17)
+# Lees-Edwards boundaries (shear.py; never with a vibrating wall): the shear rate and the x offset of
+# the image box above at local time 0. A sheared geometry has 12 entries, one with a vibrating wall 17.
+G_SHEAR_RATE, G_SHEAR_OFFSET = 10, 11
+N_GEO_SHEAR = 12
 
 # waveforms of a vibrating wall (walls.py)
 WAVE_SINE, WAVE_TRIANGLE, WAVE_SAWTOOTH = 0, 1, 2
@@ -254,10 +260,12 @@ WAVE_SINE, WAVE_TRIANGLE, WAVE_SAWTOOTH = 0, 1, 2
 NO_MOVING_WALL = (-1.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 
 
-def make_geo(box, half, grav=None, wall=None):
-    """The ``geo`` tuple from 3-component box and half-length arrays, optional gravity and the
-    vibrating wall's ``(axis, face, wave, amplitude, omega, phase at local time 0, stick speed)``."""
+def make_geo(box, half, grav=None, wall=None, shear=None):
+    """The ``geo`` tuple from 3-component box and half-length arrays, optional gravity, the
+    vibrating wall's ``(axis, face, wave, amplitude, omega, phase at local time 0, stick speed)``
+    or the Lees-Edwards ``(shear rate, image offset at local time 0)``."""
     g = [0.0, 0.0, 0.0] if grav is None else [float(x) for x in grav[:3]]
     on = float(any(x != 0.0 for x in g))
     geo = (*(float(x) for x in box), *(float(x) for x in half), *g, on)
-    return geo if wall is None else (*geo, *(float(x) for x in wall))
+    extra = wall if wall is not None else shear
+    return geo if extra is None else (*geo, *(float(x) for x in extra))

@@ -25,6 +25,7 @@ from .jit import hot, jit
 from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTACT_GROWN, CONTACT_SOFT, CONTACT_WELL, NB_LIST, NORMAL_SOFT, TANGENT_SMOOTH
 from .nblist import build_lists, list_reach, rebuild_list
 from .predict import advance, separation
+from .stress import integrate_sheared
 from .wallmotion import free_fall, has_wall, integrate_riding, release, take_off
 from .queue import queue_top, queue_update
 from .schedule import cross_cell, predict_aux, predict_pair, repredict, requeue, wrap_into_box
@@ -80,9 +81,10 @@ def integrate_kinetic(acc, t, geo, total_mass):
 
     Between events the total momentum only feels gravity, :math:`\mathbf P(\tau) = \mathbf P_0 + M\mathbf G\tau`,
     so :math:`E(\tau) = E_0 + \mathbf G\cdot\mathbf P_0\,\tau + \tfrac12 M G^2\tau^2` is integrated exactly.
-    Particles riding on the vibrating wall move with it instead (:func:`.wallmotion.integrate_riding`).
+    Particles riding on the vibrating wall move with it instead (:func:`.wallmotion.integrate_riding`);
+    in a sheared box the peculiar sums follow the flow (:func:`.stress.integrate_sheared`).
     """
-    if integrate_riding(acc, t, geo, total_mass):
+    if integrate_riding(acc, t, geo, total_mass) or integrate_sheared(acc, t, geo):
         return
     free_fall(acc, t - acc[L.A_LAST_T], geo, total_mass, 0, 0.0)
     acc[L.A_LAST_T] = t

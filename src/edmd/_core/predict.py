@@ -9,7 +9,8 @@ import math
 import numpy as np
 from .jit import leaf
 
-from .layout import G_GX, G_GY, G_GZ, G_HX, G_HY, G_HZ, G_LX, G_LY, G_LZ, G_ON, R, T, VX, VY, VZ, X, Y, Z
+from .layout import G_GX, G_GY, G_GZ, G_ON, R, T, VX, VY, VZ, X, Y, Z
+from .images import box_shift, shear_image, wrap3, wrap_delta  # noqa: F401 (the core imports them from here)
 from .wallmotion import ride_flight
 
 INF = np.inf
@@ -43,37 +44,6 @@ def contact_time(dx, dy, dz, gx, gy, gz, sigma):
     t = t if disc > 0.0 else INF
     t = 0.0 if c <= 0.0 else t
     return t if b < 0.0 else INF
-
-
-@leaf
-def wrap_delta(d, length, half):
-    """Minimum-image shift of one separation component (``half = inf`` on open axes)."""
-    if d > half:
-        return d - length
-    if d < -half:
-        return d + length
-    return d
-
-
-@leaf
-def box_shift(x, length, half):
-    """Periodic images a coordinate is beyond the box ``[-half, half)`` (``half = inf``: open axis), -1, 0 or 1."""
-    if half < INF:
-        if x >= half:
-            return 1
-        if x < -half:
-            return -1
-    return 0
-
-
-@leaf
-def wrap3(dx, dy, dz, geo):
-    """Minimum image of a separation vector (see :func:`edmd._core.layout.make_geo`)."""
-    return (
-        wrap_delta(dx, geo[G_LX], geo[G_HX]),
-        wrap_delta(dy, geo[G_LY], geo[G_HY]),
-        wrap_delta(dz, geo[G_LZ], geo[G_HZ]),
-    )
 
 
 @leaf
@@ -113,13 +83,14 @@ def advance(P, i, t, geo):
 def relative_to(xi, yi, zi, vxi, vyi, vzi, P, j, t, geo):
     """Minimum-image separation and relative velocity of a particle at ``(x_i, v_i)`` and ``j`` at time ``t``."""
     xj, yj, zj, vxj, vyj, vzj = flight(P, j, t, geo)
-    dx, dy, dz = wrap3(xi - xj, yi - yj, zi - zj, geo)
-    return dx, dy, dz, vxi - vxj, vyi - vyj, vzi - vzj
+    dx, dy, dz, ux = shear_image(xi - xj, yi - yj, zi - zj, t, geo)
+    return dx, dy, dz, vxi - vxj + ux, vyi - vyj, vzi - vzj
 
 
 @leaf
 def separation(P, i, j, t, geo):
-    """Minimum-image separation ``r_i(t) - r_j(t)`` and relative velocity ``v_i(t) - v_j(t)``."""
+    """Minimum-image separation ``r_i(t) - r_j(t)`` and relative velocity ``v_i(t) - v_j(t)`` (of
+    the image of ``j`` nearest ``i``: under shear, its velocity is shifted with it, :mod:`.images`)."""
     xi, yi, zi, vxi, vyi, vzi = flight(P, i, t, geo)
     return relative_to(xi, yi, zi, vxi, vyi, vzi, P, j, t, geo)
 

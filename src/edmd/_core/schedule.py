@@ -17,11 +17,12 @@ import numpy as np
 from numba.extending import overload
 
 from . import layout as L
-from .cells import cell_insert, cell_remove, count_work, crossing_time, walk_cells, walk_next
+from .cells import cell_insert, cell_of_point, cell_remove, count_work, crossing_time, walk_cells, walk_next
+from .images import cross_y_face, sheared, sheared_type
 from .jit import hot, jit
 from .layout import NB_LIST
 from .nblist import SQRT3, shell_exit_time
-from .predict import INF, box_shift, contact_time, flight, gap_time, relative_to, wrap3
+from .predict import INF, advance, box_shift, contact_time, flight, gap_time, relative_to, wrap3
 from .queue import queue_update
 from .wallmotion import vibrating_type, has_wall, is_moving, level_time, ride_axis, ride_end, wall_params
 from .walls import moving_wall_time, ride_pair_dt
@@ -267,6 +268,8 @@ def cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf):
     ny, nz = gi[1], gi[2]
     cx, cy, cz = c // (ny * nz), (c // nz) % ny, c % nz
     ck = (cx, cy, cz)[k] + step
+    if k == 1 and (ck == gi[1] or ck < 0) and cross_sheared_face(i, t, 1 if ck > 0 else -1, P, image, count, ev, grid, geo, cbuf):
+        return
     if ck == gi[k]:
         ck = 0
         P[i, L.X + k] -= geo[k]
@@ -284,6 +287,41 @@ def cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf):
     cell_remove(grid, i)
     cell_insert(grid, i, (cx * ny + cy) * nz + cz)
     scan_cells(i, t, P, count, ev, grid, geo, cbuf, k, step)
+
+
+@jit
+def _cross_sheared_face(i, t, shift, P, image, count, ev, grid, geo, cbuf):
+    advance(P, i, t, geo)
+    cross_y_face(P, image, i, shift, t, geo)
+    ny, nz = grid.shape[1], grid.shape[2]
+    c = grid.cell[i]
+    cx = cell_of_point(P[i, L.X], 0.0, 0.0, geo, grid) // (ny * nz)
+    cell_remove(grid, i)
+    cell_insert(grid, i, (cx * ny + (0 if shift > 0 else ny - 1)) * nz + c % nz)
+    scan_cells(i, t, P, count, ev, grid, geo, cbuf, np.int64(-1), np.int64(0))
+
+
+def cross_sheared_face(i, t, shift, P, image, count, ev, grid, geo, cbuf):
+    """A cell crossing of ``i`` through the y face of a sheared box (``shift``: +1 upwards, -1
+    downwards): it becomes its image (:func:`.images.cross_y_face`) in the cell of its new x on the
+    opposite face and scans its whole new neighbourhood (its x jumped by the offset). Returns
+    whether the box is sheared (otherwise nothing is done: a plain periodic crossing)."""
+    if sheared(geo):
+        _cross_sheared_face(i, t, shift, P, image, count, ev, grid, geo, cbuf)
+        return True
+    return False
+
+
+@overload(cross_sheared_face, inline="always")
+def _cross_sheared_face_hook(i, t, shift, P, image, count, ev, grid, geo, cbuf):
+    if not sheared_type(geo):
+        return lambda i, t, shift, P, image, count, ev, grid, geo, cbuf: False
+
+    def impl(i, t, shift, P, image, count, ev, grid, geo, cbuf):
+        _cross_sheared_face(i, t, shift, P, image, count, ev, grid, geo, cbuf)
+        return True
+
+    return impl
 
 
 @hot

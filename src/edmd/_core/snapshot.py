@@ -3,6 +3,7 @@
 import numpy as np
 from .jit import jit_alloc
 
+from .images import fold_face
 from .predict import flight
 
 
@@ -20,12 +21,13 @@ def stream_all(P, image, tag, t, d, geo):
     img = np.empty((n, d), np.int64)
     for i in range(n):
         x, y, z, vx, vy, vz = flight(P, i, t, geo)
+        x, y, vx, across = fold_face(x, y, vx, t, geo)  # (sheared box: through the sliding y face)
         r = (x, y, z)
         v = (vx, vy, vz)
         u = tag[i]
         for k in range(d):
             xk = r[k]
-            m = image[i, k]
+            m = image[i, k] + (across if k == 1 else 0)
             length, half = geo[k], geo[3 + k]
             if half < np.inf:
                 while xk >= half:
@@ -38,3 +40,4 @@ def stream_all(P, image, tag, t, d, geo):
             img[u, k] = m
             vel[u, k] = v[k]
     return pos, vel, img
+

@@ -22,10 +22,31 @@ The energy current (for the thermal conductivity, §5.6) is kept the same way: t
 updated from each changed particle's value before and after), its time integral (``A_JE_INT``)
 and the collisional transfer :math:`\sum_{\rm coll}\tfrac12\mathbf r_{ij}(\Delta e_i - \Delta e_j)`
 (``A_QV``; the energy an inelastic collision loses is taken out at the contact point).
+
+**Under shear** (Lees-Edwards, :mod:`.images`) the kinetic sums are peculiar:
+:math:`\mathsf K = \sum_i m_i\mathbf c_i\otimes\mathbf c_i` with :math:`\mathbf c = \mathbf v - \dot\gamma y\,\hat{\mathbf x}`
+(and so are ``A_KE`` and the momentum ``A_P*``). Between events :math:`\dot c_x = -\dot\gamma c_y`, so
+
+.. math::
+    K_{xx}(\tau) = K_{xx} - 2\dot\gamma K_{xy}\tau + \dot\gamma^2K_{yy}\tau^2,\quad
+    K_{xy}(\tau) = K_{xy} - \dot\gamma K_{yy}\tau,\quad K_{xz}(\tau) = K_{xz} - \dot\gamma K_{yz}\tau,
+
+the others constant (:func:`integrate_sheared`), and the boundaries work on the peculiar motion
+at the rate :math:`-\dot\gamma K_{xy}`. An impulse :math:`\mathbf J` on ``i`` of a pair across the
+separation :math:`\mathbf r_{ij}` changes the peculiar energy by the work it does in the pair's frame
+plus :math:`-\dot\gamma\,y_{ij}J_x` (:func:`impulse_shear_work`). Summed, ``acc[A_SHEAR_WORK]`` is
+:math:`-\dot\gamma V\int P_{xy}\,dt` (the viscous heating) and closes the energy balance
+:math:`\Delta E_{\rm peculiar} = W_{\rm shear} - E_{\rm dissipated}`. The energy current is not kept under shear.
 """
 
+from numba.extending import overload
+
+from .images import sheared, sheared_type
 from .jit import leaf
-from .layout import A_JE, A_JE_INT, A_KT, A_KT_INT, A_PX, A_PY, A_PZ, A_QV, A_VIRIAL, A_VT, G_GX, G_GY, G_GZ, G_ON, VX, VY, VZ
+from .layout import (
+    A_JE, A_JE_INT, A_KE, A_KE_INT, A_KT, A_KT_INT, A_LAST_T, A_PX, A_PY, A_PZ, A_QV, A_SHEAR_WORK, A_VIRIAL, A_VT,
+    G_GX, G_GY, G_GZ, G_ON, G_SHEAR_RATE, VX, VY, VZ,
+)  # fmt: skip
 
 
 @leaf
@@ -157,3 +178,70 @@ def pair_energy_current(acc, P, i, j, ei0, ej0, ei1, ej1, dix, diy, diz, djx, dj
         vi, vj = P[i, VX + k], P[j, VX + k]
         acc[A_JE + k] += ei1 * vi - ei0 * (vi - dvi) + ej1 * vj - ej0 * (vj - dvj)
         acc[A_QV + k] += rk * h
+
+
+@leaf
+def _book_shear_work(acc, w):
+    acc[A_KE] += w
+    acc[A_SHEAR_WORK] += w
+
+
+def impulse_shear_work(acc, ry, jx, geo):
+    r"""Book the boundaries' work :math:`-\dot\gamma\,r_yJ_x` on the peculiar energy of an impulse
+    :math:`\mathbf J` on a particle (or on ``i`` of a pair) at height (or height difference) ``r_y``
+    (nothing in an unsheared box)."""
+    if sheared(geo):
+        _book_shear_work(acc, -geo[G_SHEAR_RATE] * ry * jx)
+
+
+@overload(impulse_shear_work, inline="always")
+def _impulse_shear_work_hook(acc, ry, jx, geo):
+    if sheared_type(geo):
+        return lambda acc, ry, jx, geo: _book_shear_work(acc, -geo[G_SHEAR_RATE] * ry * jx)
+    return lambda acc, ry, jx, geo: None
+
+
+@leaf
+def _integrate_sheared(acc, t, geo):
+    a = geo[G_SHEAR_RATE]
+    tau = t - acc[A_LAST_T]
+    kxx, kyy, kzz, kxy, kxz, kyz = acc[A_KT], acc[A_KT + 1], acc[A_KT + 2], acc[A_KT + 3], acc[A_KT + 4], acc[A_KT + 5]
+    int_xx = kxx * tau - a * kxy * tau * tau + a * a * kyy * tau * tau * tau / 3.0
+    int_xy = kxy * tau - 0.5 * a * kyy * tau * tau
+    acc[A_KT_INT] += int_xx
+    acc[A_KT_INT + 1] += kyy * tau
+    acc[A_KT_INT + 2] += kzz * tau
+    acc[A_KT_INT + 3] += int_xy
+    acc[A_KT_INT + 4] += kxz * tau - 0.5 * a * kyz * tau * tau
+    acc[A_KT_INT + 5] += kyz * tau
+    acc[A_KE_INT] += 0.5 * (int_xx + (kyy + kzz) * tau)
+    dxx = -2.0 * a * kxy * tau + a * a * kyy * tau * tau
+    acc[A_KT] += dxx
+    acc[A_KT + 3] -= a * kyy * tau
+    acc[A_KT + 4] -= a * kyz * tau
+    acc[A_KE] += 0.5 * dxx
+    acc[A_SHEAR_WORK] -= a * int_xy
+    acc[A_PX] -= a * acc[A_PY] * tau
+    acc[A_LAST_T] = t
+
+
+def integrate_sheared(acc, t, geo):
+    r"""Advance the peculiar kinetic energy, tensor and momentum and their integrals to local time
+    ``t`` in a sheared box (the closed forms of the module doc; :math:`P_x(\tau) = P_x - \dot\gamma P_y\tau`),
+    with the boundaries' work, and say whether it did (not in an unsheared box)."""
+    if sheared(geo):
+        _integrate_sheared(acc, t, geo)
+        return True
+    return False
+
+
+@overload(integrate_sheared, inline="always")
+def _integrate_sheared_hook(acc, t, geo):
+    if sheared_type(geo):
+
+        def impl(acc, t, geo):
+            _integrate_sheared(acc, t, geo)
+            return True
+
+        return impl
+    return lambda acc, t, geo: False

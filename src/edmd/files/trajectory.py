@@ -4,7 +4,8 @@ Standard chunks: positions, velocities, diameters, masses, moments of inertia, i
 dimensions, step, orientations (identity quaternions: spheres have no orientation) and angular
 momenta in HOOMD's convention (``particles/angmom``, see :func:`angmom`). Under ``log/``: the
 continuous ``time``, the ``events`` and ``collisions`` counters, the exact double-precision box
-(``log/configuration/box``), the periodic flags, the radii and ``log/particles/angular_velocity``.
+(``log/configuration/box``), the periodic flags, the Lees-Edwards image offset
+(``log/configuration/shear_offset``; also as HOOMD's tilt ``xy`` of the box), the radii and ``log/particles/angular_velocity``.
 
 ``configuration/step`` is the cumulative event count (``log/events``): it grows with time, at no
 fixed rate. A frame's time is ``log/time``; trajectories space frames evenly, ``start + k *
@@ -63,6 +64,7 @@ def state_to_frame(state: State, totals: Totals | None = None, pending: bool | N
     f.configuration.step = 0 if totals is None else totals.events
     box = np.zeros(6, np.float32)  # what GSD stores: the exact box is log/configuration/box
     box[:d] = state.box
+    box[3] = state.shear_offset / state.box[1] if d > 1 else 0.0  # Lees-Edwards images: HOOMD's tilt xy
     f.configuration.box = box
     f.particles.N = n
     f.particles.position = state.points
@@ -87,6 +89,7 @@ def state_to_frame(state: State, totals: Totals | None = None, pending: bool | N
     f.log["time"] = np.array([state.time], np.float64)
     f.log["configuration/box"] = state.box.astype(np.float64)
     f.log["configuration/periodic"] = state.periodic.astype(np.uint8)
+    f.log["configuration/shear_offset"] = np.array([state.shear_offset], np.float64)  # (in every frame: GSD defaults)
     f.log["particles/angular_velocity"] = np.ascontiguousarray(state.angular_velocity, np.float64)  # (a broadcast constant in smooth runs)
     f.log["particles/radius"] = state.radius.astype(np.float64)
     f.log["particles/last_collision"] = state.last_collision.astype(np.float64)  # in every frame (GSD defaults)
@@ -141,6 +144,7 @@ def frame_to_state(frame: gsd.hoomd.Frame, check_overlaps: bool = True) -> State
     riding = log.get("particles/riding")
     time = float(log["time"][0]) if "time" in log else 0.0
     captured = log.get("state/captured_pairs")
+    offset = log.get("configuration/shear_offset")
     return State(
         position=pos,
         velocity=vel,
@@ -158,6 +162,7 @@ def frame_to_state(frame: gsd.hoomd.Frame, check_overlaps: bool = True) -> State
         pending_partner=log.get("particles/pending_partner"),
         captured_pairs=None if captured is None else np.asarray(captured, np.int64).reshape(-1, 2),
         riding=None if riding is None else np.asarray(riding, bool),
+        shear_offset=0.0 if offset is None else float(offset[0]),
         check_overlaps=check_overlaps,
     )
 

@@ -36,6 +36,7 @@ from .._core.forcing import tick_time
 from .vibration import VibratingWall
 from .growth import Growth
 from .wells import SquareWell
+from .shear import Shear
 
 
 @dataclasses.dataclass(frozen=True)
@@ -153,11 +154,11 @@ def _check_parameters(driver, positive: tuple[str, ...]):
         raise ValueError(f"{owner} seed must be an integer in [0, 2**63), got {seed!r}")
 
 
-DRIVERS = {"andersen": Andersen, "white_noise": WhiteNoise, "vibrating_wall": VibratingWall, "square_well": SquareWell, "growth": Growth}
+DRIVERS = {"andersen": Andersen, "white_noise": WhiteNoise, "vibrating_wall": VibratingWall, "square_well": SquareWell, "growth": Growth, "shear": Shear}
 
 
 def driver_from_dict(data: dict | None, expected: type):
-    """The thermostat, forcing, vibrating wall, square well or growth of a ``to_dict()`` (``None`` stays ``None``), checked to be an ``expected``.
+    """The thermostat, forcing, vibrating wall, square well, growth or shear of a ``to_dict()`` (``None`` stays ``None``), checked to be an ``expected``.
 
     Example:
         >>> driver_from_dict({"kind": "andersen", "kT": 1.0, "rate": 0.5}, Andersen)
@@ -165,7 +166,7 @@ def driver_from_dict(data: dict | None, expected: type):
         >>> driver_from_dict({"kind": "nose", "kT": 1.0}, Andersen)
         Traceback (most recent call last):
         ...
-        ValueError: unknown kind 'nose'; the kinds are andersen, white_noise, vibrating_wall, square_well, growth
+        ValueError: unknown kind 'nose'; the kinds are andersen, white_noise, vibrating_wall, square_well, growth, shear
     """
     if data is None:
         return None

@@ -21,7 +21,8 @@ from numba import typeof
 from .._core import layout as L
 from .._core.bath import bath_schedule
 from .._core.bundles import Drive, Lists, Particles, new_events, new_pairs
-from .._core.cells import GI_WORK, new_grid
+from .._core.cells import GI_WORK, cells_buffer_size, new_grid
+from .._core.images import image_offset
 from .._core.jit import in_disk_cache
 from .._core.loop import GEO_ARG, integrate_kinetic, loop_variant
 from .._core.wallmotion import rider_axis
@@ -96,8 +97,8 @@ class Engine:
     """Compiled-core arrays of one system (internal; see :class:`edmd.Simulation`)."""
 
     def __init__(self, state: State, options: EngineOptions | None = None, rule=None, wall=None, gravity=None, **drivers):
-        """``drivers``: ``thermostat``, ``forcing``, ``vibration``, ``well``, ``growth`` (``None``: off)."""
-        thermostat, forcing, vibration, well, growth = (drivers.pop(k, None) for k in ("thermostat", "forcing", "vibration", "well", "growth"))
+        """``drivers``: ``thermostat``, ``forcing``, ``vibration``, ``well``, ``growth``, ``shear`` (``None``: off)."""
+        thermostat, forcing, vibration, well, growth, shear = (drivers.pop(k, None) for k in ("thermostat", "forcing", "vibration", "well", "growth", "shear"))
         if drivers:
             raise TypeError(f"unknown engine arguments {sorted(drivers)}")
         self.options = options or EngineOptions()
@@ -114,6 +115,8 @@ class Engine:
             self.grav[: self.dim] = g
         self.vibration = vibration
         self.well = well
+        self.shear = shear
+        self._shear_offset = float(state.shear_offset)
         self.geo = self._geometry(float(state.time))
         self.fp = np.zeros(L.N_FP)
         self.ip = np.zeros(L.N_IP, np.int64)
@@ -139,6 +142,7 @@ class Engine:
         self.growth = growth
         if growth is not None:
             self._check_growth(state)
+        self._check_shear(state, gravity is not None and np.any(self.grav != 0.0))
         self.etab = collide.viscoelastic_table()[0]
         self.ip[L.IP_WALLS] = sum(1 << k for k in range(self.dim) if not self.periodic[k])
         self.ip[L.IP_MAXSTALL] = 2 * self.n + 1000
@@ -148,11 +152,11 @@ class Engine:
         self.acc = np.zeros(L.N_ACC)
         self.cnt = np.zeros(L.N_COUNTERS, np.int64)
         self.clog = np.zeros((0, 5))
-        self.cbuf = np.zeros(27, np.int32)
         self.work = np.zeros(4, np.int64)  # cells scanned, pairs tested, calendar entries moved, events (work_counters)
         self.collision_log: list[np.ndarray] | None = None
         self.list_capacity = 0
         self._choose_neighbours(state)
+        self.cbuf = np.zeros(cells_buffer_size(self.grid_cells, shear is not None), np.int32)
         if growth is not None:
             speed = math.sqrt(growth.kT / float(state.mass.mean()))
             args = (state.packing_fraction, self.dim, 2.0 * float(state.radius.max()), speed, float(self.fp[L.FP_SKIN]))
@@ -181,7 +185,7 @@ class Engine:
         )
         run_events, geo_type = self.loop.run_events, typeof(self.geo)
         if not any(sig.args[GEO_ARG] == geo_type for sig in run_events.nopython_signatures) and not in_disk_cache(run_events, (GEO_ARG, self.geo)):
-            name = self.loop.name + ("+vibration" if self.vibration is not None else "")
+            name = self.loop.name + ("+vibration" if self.vibration is not None else "") + ("+shear" if self.shear is not None else "")
             log.info("compiling the event loop for %s runs (once; cached afterwards, see `edmd compile`)", name)
 
     # ------------------------------------------------------------------ set-up
@@ -189,7 +193,9 @@ class Engine:
         opt = self.options
         mode = opt.neighbours
         if mode == "auto":
-            mode = "list" if state.packing_fraction >= opt.auto_threshold or self._pair_state else "cells"
+            mode = "list" if (state.packing_fraction >= opt.auto_threshold or self._pair_state) and self.shear is None else "cells"
+        if mode == "list" and self.shear is not None:
+            raise StateError("Lees-Edwards shear needs neighbours='cells' (or 'auto'): the sliding images are followed by the cell grid")
         if mode == "cells" and self._pair_state:
             what = "square wells" if self.well is not None else "growing particles"
             raise StateError(f"{what} need neighbours='list' (or 'auto'): their pair events are predicted over neighbour lists")
@@ -205,7 +211,7 @@ class Engine:
                         if short.size
                         else "a grid of >= 4 cells on every periodic axis, which the memory cap on the cell count does not allow here"
                     )
-                    raise StateError(f"neighbours='cells' needs {detail}; use neighbours='list' or 'auto'")
+                    raise StateError(f"neighbours='cells' needs {detail}; use neighbours='list' or 'auto'" if self.shear is None else f"Lees-Edwards shear needs {detail}")
                 mode = "list"
         skin = opt.skin * 2.0 * float(state.radius.mean())
         if mode == "list" and periodic_len.size:
@@ -266,6 +272,24 @@ class Engine:
         if others:
             raise StateError(f"growing particles cannot be combined with {', '.join(others)}")
 
+    def _check_shear(self, state: State, gravity: bool):
+        """Lees-Edwards boundaries need periodic x and y; they shear smooth or rough hard spheres under
+        any instantaneous rule, with walls on z. A state with sliding images needs them."""
+        if self.shear is None:
+            if state.shear_offset != 0.0:
+                raise StateError(
+                    f"the state has Lees-Edwards images (shear_offset = {state.shear_offset:g}): run it with shear=edmd.Shear(rate=...) "
+                    "(rate 0 keeps the images where they are) or set its shear_offset to 0"
+                )
+            return
+        if self.dim < 2 or not (self.periodic[0] and self.periodic[1]):
+            raise StateError("Lees-Edwards shear needs periodic x (the flow) and y (the gradient) axes")
+        others = [name for name, x in (("eMD*", self.emd_rule), ("a square well", self.well), ("a thermostat", self.thermostat),
+                                       ("forcing", self.forcing), ("a vibrating wall", self.vibration), ("growing particles", self.growth),
+                                       ("gravity", gravity or None)) if x is not None]  # fmt: skip
+        if others:
+            raise StateError(f"Lees-Edwards shear cannot be combined with {', '.join(others)} (yet)")
+
     def _start_segment(self):
         """Growth at a load: the rate relative to the loaded radii and the lists' margin up to the
         segment's latest end (none once the radii have stopped growing)."""
@@ -323,7 +347,8 @@ class Engine:
         wall = None if self.vibration is None else self.vibration.geo_entries(origin)
         if wall is not None and self.well is not None:  # (no riders: the wells' pair events do not follow the wall)
             wall = (*wall[:-1], 0.0)
-        return L.make_geo(self.box, self.half, self.grav, wall)
+        shear = None if self.shear is None else (self.shear.rate, self._shear_offset)  # (the loaded state's images)
+        return L.make_geo(self.box, self.half, self.grav, wall, shear)
 
     def _check_vibration(self, state: State, vib):
         k = vib.axis_index
@@ -360,6 +385,7 @@ class Engine:
         if state.n != self.n or state.dim != self.dim:
             raise StateError("a loaded state must have the same number of particles and dimension")
         self.t_origin = float(state.time)
+        self._shear_offset = float(state.shear_offset)
         if self.vibration is not None and new:  # (the engine's own states touch the wall to round-off of the re-based phase)
             self._vibration_clear(state)
         self.geo = self._geometry(self.t_origin)
@@ -571,6 +597,9 @@ class Engine:
         committed = self.part.rows[:, L.VX : L.VZ + 1]  # particles are all at local time 0
         if self.emd_rule is not None:
             committed = committed + self.emd.pending_dv
+        if self.shear is not None:  # the sums are peculiar (_core/stress.py)
+            committed = committed.copy()
+            committed[:, 0] -= self.shear.rate * self.part.rows[:, L.Y]
         self.acc[L.A_KE] = 0.5 * float(self.part.mass @ np.einsum("ij,ij->i", committed, committed))
         self.acc[L.A_PX : L.A_PZ + 1] = np.einsum("i,ij->j", self.part.mass, committed)
         tensor = np.einsum("i,ij,ik->jk", self.part.mass, committed, committed)  # (no N-sized temporary)
@@ -728,6 +757,7 @@ class Engine:
             "periodic": self.periodic.copy(),
             "last_collision": self._user_order(tlast + self.t_origin) if len(tlast) else filled(-np.inf, (n,)),
             "riding": self._user_order(self.part.rows[:, L.RIDE] != 0.0) if self.vibration is not None else filled(False, (n,), bool),
+            "shear_offset": self.shear_offset(t),
         }
         if self.emd_rule is not None:
             partner = self.emd.partner
@@ -742,6 +772,11 @@ class Engine:
         if checked:
             state.check()
         return state
+
+    def shear_offset(self, t: float) -> float:
+        """The offset of the Lees-Edwards images above the box at absolute time ``t`` (0 without shear),
+        in :math:`[-L_x/2, L_x/2)`: the core's :func:`edmd._core.images.image_offset`."""
+        return 0.0 if self.shear is None else float(image_offset(t - self.t_origin, self.geo))
 
     def _take_work(self, events: int):
         """Move the work counted in the grid and the calendar (since they were made) to :attr:`work`."""
@@ -789,9 +824,9 @@ class Engine:
     @property
     def keeps_energy_current(self) -> bool:
         """Whether the accumulators hold the energy current (:mod:`edmd._core.stress`): runs without
-        gravity, a vibrating wall, square wells (whose potential energy it leaves out) or white-noise
-        forcing (whose kicks it does not follow)."""
-        return self.keeps_stress and not np.any(self.grav) and self.well is None and self.forcing is None
+        gravity, a vibrating wall, square wells (whose potential energy it leaves out), white-noise
+        forcing (whose kicks it does not follow) or shear."""
+        return self.keeps_stress and not np.any(self.grav) and self.well is None and self.forcing is None and self.shear is None
 
     def accumulators_at(self, t: float) -> np.ndarray:
         """A copy of the accumulators (``layout.ACCUMULATORS``) carried on to absolute time ``t``

@@ -20,6 +20,7 @@ from .observer import Observer, Totals
 from ..state import State
 from ..physics.thermostats import Andersen, WhiteNoise, driver_from_dict
 from ..physics.vibration import VibratingWall
+from ..physics.shear import Shear
 from ..physics.growth import Growth
 from ..physics.wells import SquareWell
 
@@ -40,6 +41,8 @@ class Simulation:
         well: square-well attraction between the cores (:class:`edmd.SquareWell`, or its dict) or ``None``.
         growth: radii growing in time, Lubachevsky–Stillinger compression (:class:`edmd.Growth`, or
             its dict; see :func:`edmd.compress`) or ``None``.
+        shear: Lees-Edwards boundaries, uniform shear flow along x with gradient along y
+            (:class:`edmd.Shear`, or its dict) or ``None``.
         engine: :class:`~edmd.run.engine.EngineOptions` (or a dict of them).
 
     Example:
@@ -63,6 +66,7 @@ class Simulation:
         vibration: VibratingWall | dict | None = None,
         well: SquareWell | dict | None = None,
         growth: Growth | dict | None = None,
+        shear: Shear | dict | None = None,
         engine: EngineOptions | dict | None = None,
     ):
         if e_n is not None:
@@ -80,7 +84,8 @@ class Simulation:
         vibration = _driver(vibration, VibratingWall, "vibration")
         well = _driver(well, SquareWell, "well")
         growth = _driver(growth, Growth, "growth")
-        self._engine = self._build_engine(state, collision, walls, gravity, (thermostat, forcing, vibration, well, growth), engine)
+        shear = _driver(shear, Shear, "shear")
+        self._engine = self._build_engine(state, collision, walls, gravity, (thermostat, forcing, vibration, well, growth, shear), engine)
         #: uniform acceleration (``d`` components)
         self.gravity = self._engine.grav[: state.dim].copy()
         self._time = float(state.time)
@@ -90,10 +95,10 @@ class Simulation:
     def _build_engine(self, state, collision, walls, gravity, drivers, options):
         """The engine of these physics, compiled; sets :attr:`params` (subclasses with another
         engine, e.g. :class:`~edmd.run.dem.DEMSimulation`, override this and nothing else of the set-up)."""
-        thermostat, forcing, vibration, well, growth = drivers
+        thermostat, forcing, vibration, well, growth, shear = drivers
         engine = Engine(
             state, options, rule=collision, wall=walls, gravity=gravity, thermostat=thermostat, forcing=forcing, vibration=vibration, well=well,
-            growth=growth,
+            growth=growth, shear=shear,
         )  # fmt: skip
         engine.compile()  # once per machine (cached on disk); kept out of wall_seconds
         _warn_viscoelastic_validity(state, engine.rule, engine.wall, engine.grav[: state.dim])
@@ -107,6 +112,7 @@ class Simulation:
             "vibration": None if vibration is None else vibration.to_dict(),
             "well": None if well is None else well.to_dict(),
             "growth": None if engine.growth is None else engine.growth.to_dict(),  # (start and segment resolved)
+            "shear": None if shear is None else shear.to_dict(),
             "engine": dataclasses.asdict(engine.options),
         }
         return engine
@@ -198,9 +204,9 @@ class Simulation:
     @property
     def has_energy_input(self) -> bool:
         """Whether something puts energy in (updaters, a thermostat, forcing, a vibrating wall,
-        growing particles): ``Totals.energy_input`` counts it."""
+        growing particles: ``Totals.energy_input`` counts it; shear: ``Totals.shear_work``)."""
         e = self._engine
-        return self.has_updaters or any(d is not None for d in (e.thermostat, e.forcing, e.vibration, e.growth))
+        return self.has_updaters or any(d is not None for d in (e.thermostat, e.forcing, e.vibration, e.growth, e.shear))
 
     def apply_update(self, old: State, new: State):
         """Continue from ``new``, the system at ``old.time`` as an updater changed it.
@@ -313,7 +319,7 @@ class Simulation:
 
 
 def _driver(value, kind: type, name: str):
-    """A thermostat, forcing or vibration argument: ``None``, a ``kind``, or its dict."""
+    """A thermostat, forcing, vibration, well, growth or shear argument: ``None``, a ``kind``, or its dict."""
     if isinstance(value, dict):
         value = driver_from_dict(value, kind)
     if value is not None and not isinstance(value, kind):
