@@ -180,3 +180,98 @@ def random_contact(rng, dim, R, speed, b):
         center[2] = 0.0
     sigma = R[0] + R[1]
     return [center + 0.6 * sigma * n, center - 0.4 * sigma * n], [V + 0.7 * g, V - 0.3 * g]
+
+
+def _sheared_pair_times(pos, vel, radius, box, rate, offset):
+    """Earliest contact of every pair in a Lees-Edwards box over every image explicitly: the
+    images ``s_y`` = -1, 0, 1 along y (x shifted by ``s_y * offset``, v_x by ``s_y * rate * L_y``),
+    each at x shifts -1, 0, 1 (after rounding) and z shifts -1, 0, 1. Returns times and the
+    separation and relative velocity of the image used."""
+    n, d = pos.shape
+    sig = radius[:, None] + radius[None, :]
+    best = np.full((n, n), np.inf)
+    best_dr = np.zeros((n, n, d))
+    best_dv = np.zeros((n, n, d))
+    dr0 = pos[:, None, :] - pos[None, :, :]
+    dv0 = vel[:, None, :] - vel[None, :, :]
+    for sy in (-1, 0, 1):
+        dr1 = dr0.copy()
+        dv1 = dv0.copy()
+        dr1[..., 1] -= sy * box[1]
+        dr1[..., 0] -= sy * offset
+        dv1[..., 0] -= sy * rate * box[1]
+        dr1[..., 0] -= box[0] * np.round(dr1[..., 0] / box[0])
+        if d == 3:
+            dr1[..., 2] -= box[2] * np.round(dr1[..., 2] / box[2])
+        a = np.einsum("ijk,ijk->ij", dv1, dv1)
+        for s in itertools.product((-1, 0, 1), *[(-1, 0, 1)] * (d - 2)):
+            dr = dr1.copy()
+            dr[..., 0] += s[0] * box[0]
+            if d == 3:
+                dr[..., 2] += s[1] * box[2]
+            b = np.einsum("ijk,ijk->ij", dr, dv1)
+            c = np.einsum("ijk,ijk->ij", dr, dr) - sig**2
+            disc = b * b - a * c
+            with np.errstate(invalid="ignore", divide="ignore"):
+                t = np.where((b < 0) & (disc > 0), c / (-b + np.sqrt(np.maximum(disc, 0))), np.inf)
+            t = np.where((b < 0) & (c <= 0), 0.0, t)
+            better = t < best
+            best = np.where(better, t, best)
+            best_dr[better] = dr[better]
+            best_dv[better] = dv1[better]
+    np.fill_diagonal(best, np.inf)
+    return best, best_dr, best_dv
+
+
+def _fold_sheared(pos, vel, box, rate, offset):
+    """Every particle's image inside the box of a Lees-Edwards system (positions and velocities in place)."""
+    while True:
+        s = np.floor((pos[:, 1] + 0.5 * box[1]) / box[1])
+        if not np.any(s):
+            break
+        pos[:, 1] -= s * box[1]
+        pos[:, 0] -= s * offset
+        vel[:, 0] -= s * rate * box[1]
+    pos[:, 0] = (pos[:, 0] + 0.5 * box[0]) % box[0] - 0.5 * box[0]
+    if pos.shape[1] == 3:
+        pos[:, 2] = (pos[:, 2] + 0.5 * box[2]) % box[2] - 0.5 * box[2]
+
+
+def run_sheared_reference(pos, vel, radius, mass, box, t_end, rate, offset0=0.0, e_n=1.0):
+    """Smooth hard spheres (constant e_n) in a Lees-Edwards box (periodic, flow along x, gradient
+    along y): every particle advanced at every event, every pair through every image.
+
+    Returns ``(pos, vel, log, offset)``: the final state folded into the box, ``log = [(t, i, j), ...]``
+    with ``i < j`` and the final image offset (unreduced).
+    """
+    pos = np.array(pos, float)
+    vel = np.array(vel, float)
+    radius = np.asarray(radius, float)
+    mass = np.asarray(mass, float)
+    box = np.asarray(box, float)
+    t = 0.0
+    log = []
+    while True:
+        offset = offset0 + rate * box[1] * t
+        times, dr, dv = _sheared_pair_times(pos, vel, radius, box, rate, offset)
+        k = int(np.argmin(times))
+        i, j = divmod(k, len(pos))
+        dt = times[i, j]
+        if t + dt >= t_end:
+            pos += vel * (t_end - t)
+            t = t_end
+            break
+        pos += vel * dt
+        t += dt
+        rij = dr[i, j] + dv[i, j] * dt
+        n = rij / np.linalg.norm(rij)
+        gn = dv[i, j] @ n
+        mu = mass[i] * mass[j] / (mass[i] + mass[j])
+        jimp = -(1 + e_n) * mu * gn * n
+        vel[i] += jimp / mass[i]
+        vel[j] -= jimp / mass[j]
+        log.append((t, min(i, j), max(i, j)))
+        _fold_sheared(pos, vel, box, rate, offset0 + rate * box[1] * t)
+    offset = offset0 + rate * box[1] * t
+    _fold_sheared(pos, vel, box, rate, offset)
+    return pos, vel, log, offset
