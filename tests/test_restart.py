@@ -283,7 +283,14 @@ def test_cli_restart_errors_are_clean(tmp_path):
     assert r.exit_code == 2 and "not a readable checkpoint" in r.output and "Traceback" not in r.output
 
 
-@pytest.mark.parametrize("extra", ["", DRIVERS, VIBRATION], ids=["plain", "bath+kicks", "vibrating wall"])
+#: Lees-Edwards shear (the images' offset travels in the checkpoint's state)
+SHEAR = """
+[shear]
+rate = 0.4
+"""
+
+
+@pytest.mark.parametrize("extra", ["", DRIVERS, VIBRATION, SHEAR], ids=["plain", "bath+kicks", "vibrating wall", "shear"])
 def test_kill_9_mid_run_then_restart_is_bit_for_bit(tmp_path, extra):
     """A child process runs "forever"; it is killed with SIGKILL after some checkpoints, then continued."""
     dim, t_end = 3, 3.0

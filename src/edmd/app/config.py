@@ -20,6 +20,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from ..physics import collide
 from ..physics.thermostats import Andersen, WhiteNoise
 from ..physics.vibration import VibratingWall
+from ..physics.shear import Shear
 from ..physics.wells import SquareWell
 from ..run.updaters import VelocityRescale
 
@@ -407,6 +408,17 @@ class WellConfig(_Section):
         return SquareWell(width=self.width, depth=self.depth)
 
 
+class ShearConfig(_Section):
+    """``[shear]``: uniform shear flow by Lees-Edwards boundaries (see :class:`edmd.Shear`): flow along
+    x, gradient along y."""
+
+    rate: float = Field(allow_inf_nan=False, description="shear rate gamma_dot (the images above move towards +x)")
+    profile: bool = Field(True, description="start the generated initial state in the flow: v_x += rate * y (not a state read from system.from_file)")
+
+    def build(self) -> Shear:
+        return Shear(rate=self.rate)
+
+
 class OutputConfig(_Section):
     """``[output]``: which files the run directory gets."""
 
@@ -434,6 +446,8 @@ class Config(_Section):
             raise ValueError(f"system.replicate tiles the periodic axes only; walls close {walled[0]!r}")
         if self.vibration is not None and self.vibration.axis not in self.walls.axes:
             raise ValueError(f"vibration.axis = {self.vibration.axis!r} must be one of walls.axes (the vibrating wall is one of its walls)")
+        if self.shear is not None and {"x", "y"} & set(self.walls.axes):
+            raise ValueError("[shear] needs periodic x (the flow) and y (the gradient): walls.axes may hold 'z' only")
         return self
 
     system: SystemConfig = SystemConfig()
@@ -449,6 +463,7 @@ class Config(_Section):
     forcing: ForcingConfig | None = None
     vibration: VibrationConfig | None = None
     well: WellConfig | None = None
+    shear: ShearConfig | None = None
 
     @model_validator(mode="after")
     def _integrator(self):
@@ -459,8 +474,8 @@ class Config(_Section):
                 raise ValueError("the DEM takes its dissipation from [contact]; leave [collision] at rule = 'elastic' (no tc)")
             if self.walls.axes:
                 raise ValueError("the DEM needs a periodic box: leave walls.axes empty")
-            if any(x is not None for x in (self.thermostat, self.forcing, self.vibration, self.well)):
-                raise ValueError("[thermostat], [forcing], [vibration] and [well] act through events: they need integrator.kind = 'edmd'")
+            if any(x is not None for x in (self.thermostat, self.forcing, self.vibration, self.well, self.shear)):
+                raise ValueError("[thermostat], [forcing], [vibration], [well] and [shear] act through events: they need integrator.kind = 'edmd'")
             soft = self.contact.model
         elif self.contact is not None:
             raise ValueError("[contact] is used by integrator.kind = 'dem' only")
@@ -695,6 +710,10 @@ plots = true              # PNG figures at the end of the run (also: `edmd plot 
 # [well]                  # square-well attraction between the hard cores (edmd integrator, neighbour lists)
 # width = 1.5             #   the edge at width * (R_i + R_j): pairs inside have energy -depth
 # depth = 1.0
+
+# [shear]                 # uniform shear flow, Lees-Edwards boundaries (edmd integrator, cells): flow along x,
+# rate = 0.1              #   gradient along y; temperatures and the kinetic stress are peculiar
+# profile = true          #   start in the flow (v_x += rate * y)
 
 [integrator]
 kind = "edmd"             # "edmd" (event-driven, hard particles) or "dem" (force-based, soft contacts)

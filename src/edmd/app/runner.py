@@ -102,7 +102,11 @@ def build_simulation(cfg: Config, state: State | None = None) -> Simulation:
     With ``[integrator] kind = "dem"`` it is a :class:`~edmd.run.dem.DEMSimulation` with the
     ``[contact]`` law.
     """
-    state = build_state(cfg) if state is None else state
+    shear = None if cfg.shear is None else cfg.shear.build()
+    if state is None:
+        state = build_state(cfg)
+        if shear is not None and cfg.shear.profile and cfg.system.from_file is None:
+            state = shear.with_profile(state)
     if cfg.integrator.kind == "dem":
         from ..run.dem import DEMSimulation
 
@@ -122,8 +126,9 @@ def build_simulation(cfg: Config, state: State | None = None) -> Simulation:
     shaker = None if cfg.vibration is None else cfg.vibration.build()
     well = None if cfg.well is None else cfg.well.build()
     return Simulation(
-        state, collision=rule, walls=walls, gravity=cfg.system.gravity, thermostat=bath, forcing=kicks, vibration=shaker, well=well, engine=options
-    )
+        state, collision=rule, walls=walls, gravity=cfg.system.gravity, thermostat=bath, forcing=kicks, vibration=shaker, well=well, shear=shear,
+        engine=options,
+    )  # fmt: skip
 
 
 def make_observers(cfg: Config, out: Path, run_id: str | None = None) -> list[Observer]:

@@ -36,7 +36,7 @@ AXES = "xyz"
 # and time-average every other column. Counters added to the table later belong here too.
 CUMULATIVE = (
     "time", "events", "collisions", "dissipated_energy", "emd_contacts", "emd_exceptions_a", "emd_exceptions_b",
-    "emd_fallbacks", "energy_input",
+    "emd_fallbacks", "energy_input", "shear_work",
 )  # fmt: skip
 
 
@@ -115,7 +115,10 @@ class Thermo(Observer):
     ``emd_exceptions_a``, ``emd_exceptions_b`` and ``emd_fallbacks`` (physics.md §4.8); their
     energies and temperatures use committed velocities. Runs with a thermostat, forcing
     (:mod:`edmd.physics.thermostats`) or updaters (:mod:`edmd.run.updaters`) add the cumulative
-    ``energy_input``, which ``energy_balance`` subtracts. The first row has no interval (NaN).
+    ``energy_input``, which ``energy_balance`` subtracts. Sheared runs (:class:`edmd.Shear`) report
+    energies, temperatures, the kinetic stress and momenta relative to the flow (peculiar
+    velocities) and add the cumulative ``shear_work`` of the sliding boundaries (the viscous heating
+    :math:`-\\dot\\gamma V\\int P_{xy}dt`), which ``energy_balance`` subtracts too. The first row has no interval (NaN).
     An existing CSV file is appended to; its header must name the same columns (``ValueError``
     naming the file and the differing columns otherwise).
 
@@ -139,6 +142,7 @@ class Thermo(Observer):
         self._flux: bool | None = None  # ... without the energy flux
 
     def observe(self, sim: Simulation, state: State, totals: Totals):
+        state = sim.peculiar_state(state)  # (sheared: relative to the flow)
         kinetic, rotational = state.kinetic_energy(), state.rotational_energy()
         potential = state.potential_energy(sim.gravity) + sim.elastic_energy + sim.well_energy  # + soft contacts (DEM), square wells
         row = {
@@ -151,7 +155,7 @@ class Thermo(Observer):
             "temperature_rot": state.rotational_temperature(),
             "potential_energy": potential,
             "dissipated_energy": totals.dissipated,
-            "energy_balance": kinetic + rotational + potential + totals.dissipated - totals.energy_input,
+            "energy_balance": kinetic + rotational + potential + totals.dissipated - totals.energy_input - totals.shear_work,
             "pressure": math.nan,
             "collision_rate": math.nan,
             "wall_collisions": totals.wall_collisions,
@@ -181,6 +185,8 @@ class Thermo(Observer):
         row.update(sim.emd_counters())
         if sim.has_energy_input:
             row["energy_input"] = totals.energy_input
+        if sim.shear is not None:
+            row["shear_work"] = totals.shear_work
         self._last = totals
         self.rows.append(row)
         if self.path is not None:
@@ -211,7 +217,7 @@ class Thermo(Observer):
 
     def columns(self) -> list[str]:
         """The table's columns: :data:`COLUMNS` plus one ``wall_pressure_<axis>`` per wall axis (and eMD*
-        counters, and ``energy_input`` when a thermostat, forcing or updaters put energy in)."""
+        counters, ``energy_input`` when a thermostat, forcing or updaters put energy in, ``shear_work`` under shear)."""
         return list(self.rows[0]) if self.rows else list(COLUMNS)
 
     def restore_data(self, data: dict):
@@ -219,8 +225,11 @@ class Thermo(Observer):
         super().restore_data(data)
         columns, ints = list(data["columns"]), set(data["integer_columns"])
         extra = columns[len(COLUMNS) :]
-        if columns[: len(COLUMNS)] != list(COLUMNS) or not all(c.startswith(("wall_pressure_", "pressure_", "energy_flux_", "emd_", "energy_input")) for c in extra):
-            raise ValueError(f"thermo columns {columns} differ from this version's {list(COLUMNS)} (+ wall pressures, pressure tensor, energy flux, eMD* counters, energy input)")
+        if columns[: len(COLUMNS)] != list(COLUMNS) or not all(c.startswith(("wall_pressure_", "pressure_", "energy_flux_", "emd_", "energy_input", "shear_work")) for c in extra):
+            raise ValueError(
+                f"thermo columns {columns} differ from this version's {list(COLUMNS)} (+ wall pressures, pressure tensor, energy flux, "
+                "eMD* counters, energy input, shear work)"
+            )
         table = np.asarray(data.get("rows", np.zeros((0, len(columns)))), np.float64)
         self.rows = [{c: int(v) if c in ints else float(v) for c, v in zip(columns, r)} for r in table]
         self._tensor = ("pressure_xx" in columns) if self.rows else None

@@ -56,7 +56,7 @@ class Shear:
 
     def peculiar_velocity(self, state: State) -> np.ndarray:
         r"""The velocities of ``state`` relative to the linear profile, :math:`\mathbf v - \dot\gamma y\hat{\mathbf x}`."""
-        c = np.array(state.committed_velocity, float)
+        c = np.array(state.velocity, float)  # (no pending eMD* contacts under shear)
         c[:, 0] -= self.profile(state.position[:, 1])
         return c
 

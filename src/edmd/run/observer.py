@@ -38,6 +38,8 @@ class Totals:
         stress_integral: the six components (``xx, yy, zz, xy, xz, yz``) of
             :math:`\\int\\sum_i m_i\\mathbf v_i\\otimes\\mathbf v_i\\,dt + \\sum_{\\rm coll}\\tfrac12(\\mathbf r_{ij}\\otimes\\mathbf J + \\mathbf J\\otimes\\mathbf r_{ij})`
             (physics.md §5.3), or ``None`` where the engine does not keep it (the DEM, a vibrating wall).
+        shear_work: the work of sliding Lees-Edwards boundaries on the peculiar motion,
+            :math:`-\\dot\\gamma V\\int P_{xy}\\,dt` (the viscous heating; 0 without :class:`edmd.Shear`).
         energy_flux_integral: the three components of
             :math:`\\int\\sum_i e_i\\mathbf v_i\\,dt + \\sum_{\\rm coll}\\tfrac12\\mathbf r_{ij}(\\Delta e_i - \\Delta e_j)`
             (physics.md §5.6), or ``None`` where the engine does not keep it (also gravity, square wells, white noise).
@@ -54,6 +56,7 @@ class Totals:
     energy_input: float = 0.0
     stress_integral: np.ndarray | None = None
     energy_flux_integral: np.ndarray | None = None
+    shear_work: float = 0.0
 
     def __eq__(self, other):
         return isinstance(other, Totals) and self.to_dict() == other.to_dict()

@@ -172,7 +172,22 @@ class Simulation:
             energy_input=float(acc[L.A_ENERGY_INPUT]),
             stress_integral=acc[L.A_KT_INT : L.A_KT_INT + 6] + acc[L.A_VT : L.A_VT + 6] if e.keeps_stress else None,
             energy_flux_integral=acc[L.A_JE_INT : L.A_JE_INT + 3] + acc[L.A_QV : L.A_QV + 3] if e.keeps_energy_current else None,
+            shear_work=float(acc[L.A_SHEAR_WORK]),
         )
+
+    @property
+    def shear(self):
+        """The Lees-Edwards boundaries (:class:`edmd.Shear`) of this run, or ``None``."""
+        return self._engine.shear
+
+    def peculiar_state(self, state: State) -> State:
+        r"""``state`` with its velocities relative to the imposed flow: under :class:`edmd.Shear`,
+        :math:`\mathbf v - \dot\gamma y\,\hat{\mathbf x}` (what temperatures, kinetic energies and
+        momenta of a sheared system mean); ``state`` itself otherwise."""
+        shear = self._engine.shear
+        if shear is None:
+            return state
+        return dataclasses.replace(state, velocity=shear.peculiar_velocity(state), check_overlaps=False)
 
     @property
     def well_energy(self) -> float:
