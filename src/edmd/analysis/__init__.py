@@ -17,6 +17,7 @@ from ._common import compressibility_factor, contact_value, maxwell_speed_pdf
 from .collisions import CollisionStatistics, ImpactPhases, impact_angle_pdf, impact_speed_pdf
 from .dynamics import MSD, msd_window
 from .packing import ContactNetwork, contact_pairs, rattlers
+from .shear import ShearFlow, dilute_viscosity, usf_collision_frequency
 from .steady import Profile, SteadyState, blocking_errors
 from .structure import RDF, pair_histogram
 from .thermal import AlgebraicCooling, HaffLaw, Pressure, Temperature, VelocityDistribution, sonine_a2
@@ -33,6 +34,7 @@ __all__ = [
     "Pressure",
     "Profile",
     "SelfDiffusion",
+    "ShearFlow",
     "ShearViscosity",
     "SteadyState",
     "ThermalConductivity",
@@ -45,6 +47,8 @@ __all__ = [
     "enskog_conductivity",
     "enskog_diffusion",
     "enskog_viscosity",
+    "dilute_viscosity",
+    "usf_collision_frequency",
     "rattlers",
     "impact_angle_pdf",
     "impact_speed_pdf",

@@ -178,13 +178,13 @@ class Simulation:
     @property
     def shear(self):
         """The Lees-Edwards boundaries (:class:`edmd.Shear`) of this run, or ``None``."""
-        return self._engine.shear
+        return getattr(self._engine, "shear", None)  # (the DEM has none)
 
     def peculiar_state(self, state: State) -> State:
         r"""``state`` with its velocities relative to the imposed flow: under :class:`edmd.Shear`,
         :math:`\mathbf v - \dot\gamma y\,\hat{\mathbf x}` (what temperatures, kinetic energies and
         momenta of a sheared system mean); ``state`` itself otherwise."""
-        shear = self._engine.shear
+        shear = self.shear
         if shear is None:
             return state
         return dataclasses.replace(state, velocity=shear.peculiar_velocity(state), check_overlaps=False)
@@ -221,21 +221,26 @@ class Simulation:
         """Whether something puts energy in (updaters, a thermostat, forcing, a vibrating wall,
         growing particles: ``Totals.energy_input`` counts it; shear: ``Totals.shear_work``)."""
         e = self._engine
-        return self.has_updaters or any(d is not None for d in (e.thermostat, e.forcing, e.vibration, e.growth, e.shear))
+        return self.has_updaters or self.shear is not None or any(d is not None for d in (e.thermostat, e.forcing, e.vibration, e.growth))
 
     def apply_update(self, old: State, new: State):
         """Continue from ``new``, the system at ``old.time`` as an updater changed it.
 
-        The change of mechanical energy (kinetic, rotational, gravitational and square wells') is booked as
+        The change of mechanical energy (kinetic (peculiar under shear), rotational, gravitational and square wells') is booked as
         ``energy_input``, so that kinetic + rotational + potential + dissipated - input stays
         constant. The neighbour structures and the calendar are rebuilt (as at a resync).
         """
         if new.n != old.n or new.dim != old.dim or new.time != old.time:
             raise ValueError("an updater must return the same system at the same time")
-        before = old.kinetic_energy() + old.rotational_energy() + old.potential_energy(self.gravity) + self.well_energy
+        before = self._mechanical_energy(old)
         self._engine.replace(new)
-        after = new.kinetic_energy() + new.rotational_energy() + new.potential_energy(self.gravity) + self.well_energy
+        after = self._mechanical_energy(new)
         self._engine.acc[L.A_ENERGY_INPUT] += after - before
+
+    def _mechanical_energy(self, state: State) -> float:
+        """Kinetic (peculiar under shear), rotational, gravitational and square wells' energy."""
+        state = self.peculiar_state(state)
+        return state.kinetic_energy() + state.rotational_energy() + state.potential_energy(self.gravity) + self.well_energy
 
     @classmethod
     def from_checkpoint(cls, path, observers=()) -> Simulation:

@@ -37,7 +37,9 @@ class Updater(Observer):
 
     Subclasses implement :meth:`update`, which receives a copy of the state at the firing time
     (streamed there exactly) and the updater's random generator, and returns the changed state
-    (the same object changed in place, or a new one): same particles, same time.
+    (the same object changed in place, or a new one): same particles, same time. Under shear
+    (:class:`edmd.Shear`) it acts in the frame of the flow: it receives peculiar velocities and
+    returns peculiar velocities, to which the linear profile is added back.
 
     Args:
         interval: spacing of the firing times.
@@ -60,7 +62,12 @@ class Updater(Observer):
         super().attach(sim)
 
     def fire(self, sim: Simulation, state: State, totals: Totals):
-        sim.apply_update(state, self.update(state.copy(), self.rng))
+        shear = sim.shear
+        if shear is None:
+            sim.apply_update(state, self.update(state.copy(), self.rng))
+        else:  # in the frame of the flow: the updater sees and sets peculiar velocities
+            new = self.update(sim.peculiar_state(state).copy(), self.rng)
+            sim.apply_update(state, shear.with_profile(new))
         self._k += 1
 
     def update(self, state: State, rng: np.random.Generator) -> State:  # pragma: no cover - interface

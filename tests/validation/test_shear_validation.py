@@ -1,0 +1,54 @@
+"""Uniform shear flow (Lees-Edwards) against equilibrium transport and kinetic theory (physics.md §5.7), long runs.
+
+* An elastic hard-sphere fluid sheared at a small rate (held at k_BT = 1 by rescaling the peculiar
+  velocities) has a linear velocity profile and a viscosity -P_xy / gamma_dot equal to the
+  Einstein-Helfand viscosity of an equilibrium run at the same density, within their error bars;
+  both sit at the known ratio to Enskog's (physics.md §5.6).
+* A dilute granular gas (e_n = 0.9) reaches the steady uniform shear flow whose temperature is set
+  by viscous heating against collisional cooling, and the energy balance closes to round-off.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+import edmd
+from edmd.analysis import Profile, ShearFlow, ShearViscosity
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.mark.parametrize("density", [0.5, 0.8])
+def test_sheared_viscosity_equals_einstein_helfand(tmp_path, density):
+    # gamma_dot = 0.1 (reduced shear rates a* = 0.02-0.04): linear response; the rescaling every
+    # 0.5 time units removes a heating of < 0.3 % per interval
+    eta = math.pi * density / 6
+    start = edmd.maxwell_boltzmann(edmd.lattice(500, eta), 1.0, seed=11)
+    shear = edmd.Shear(0.1)
+    sim = edmd.Simulation(shear.with_profile(start), shear=shear)
+    sim.add(edmd.VelocityRescale(kT=1.0, interval=0.5))
+    thermo = sim.add(edmd.Thermo(interval=0.5))
+    frames = sim.add(edmd.Trajectory(tmp_path / "t.gsd", interval=20.0))
+    sim.run(until_time=2050.0)
+    sim.close()
+    flow = ShearFlow(0.1, settle=50.0).compute(thermo, sim.state)
+
+    equilibrium = edmd.Simulation(edmd.maxwell_boltzmann(edmd.lattice(500, eta), 1.0, seed=12))
+    equilibrium.run(until_time=50.0)
+    th = equilibrium.add(edmd.Thermo(interval=0.25))
+    equilibrium.run(until_time=10050.0)
+    eh = ShearViscosity(lag_max=6.0, fit_from=3.0, blocks=10).compute(th, equilibrium.state)
+    print(f"n sigma^3 = {density}: sheared {flow.viscosity:.4f} +- {flow.viscosity_error:.4f}, Einstein-Helfand "
+          f"{eh.viscosity:.4f} +- {eh.error:.4f}, Enskog {eh.enskog:.4f}, a* = {flow.reduced_rate:.3f}")
+    combined = math.hypot(flow.viscosity_error, eh.error)
+    assert flow.viscosity_error < 0.02 * flow.viscosity
+    assert abs(flow.viscosity - eh.viscosity) < 3 * combined
+    band = (1.0, 1.1) if density == 0.5 else (1.2, 1.4)  # the molecular-dynamics ratio to Enskog (physics.md §5.6)
+    assert band[0] - 3 * flow.viscosity_error / eh.enskog < flow.viscosity / eh.enskog < band[1] + 3 * flow.viscosity_error / eh.enskog
+
+    profile = Profile("y", bins=10).compute(tmp_path / "t.gsd")  # lab velocities: v_x = gamma_dot y
+    slope, intercept = np.polyfit(profile.centres, profile.velocity[:, 0], 1)
+    residual = profile.velocity[:, 0] - (slope * profile.centres + intercept)
+    assert slope == pytest.approx(0.1, rel=0.05)
+    assert np.abs(residual).max() < 0.05 * 0.1 * start.box[1]
