@@ -44,8 +44,10 @@ def test_sheared_viscosity_equals_einstein_helfand(tmp_path, density):
     combined = math.hypot(flow.viscosity_error, eh.error)
     assert flow.viscosity_error < 0.02 * flow.viscosity
     assert abs(flow.viscosity - eh.viscosity) < 3 * combined
-    band = (1.0, 1.1) if density == 0.5 else (1.2, 1.4)  # the molecular-dynamics ratio to Enskog (physics.md §5.6)
-    assert band[0] - 3 * flow.viscosity_error / eh.enskog < flow.viscosity / eh.enskog < band[1] + 3 * flow.viscosity_error / eh.enskog
+    # the molecular-dynamics ratio to Enskog as recalled in physics.md §5.6 (not re-read from the
+    # tables), widened by the spread of the recollections: a sanity band, the test is the agreement above
+    band = (0.95, 1.15) if density == 0.5 else (1.1, 1.45)
+    assert band[0] < flow.viscosity / eh.enskog < band[1]
 
     profile = Profile("y", bins=10).compute(tmp_path / "t.gsd")  # lab velocities: v_x = gamma_dot y
     slope, intercept = np.polyfit(profile.centres, profile.velocity[:, 0], 1)

@@ -302,6 +302,61 @@ def transport(
         _fail("; ".join(problems))
 
 
+@app.command()
+def shear(
+    run_dir: Path = typer.Argument(Path("edmd-run"), help="A run directory of a sheared run (`edmd run` with [shear])."),
+    settle: float = typer.Option(0.0, "--settle", help="Ignore rows and frames before this time (the approach to the steady state)."),
+    bins: int = typer.Option(10, "--bins", min=2, help="Bins of the velocity profile along y."),
+):
+    """Steady uniform shear flow: temperature, pressure tensor, viscosity -P_xy / rate and the reduced
+    shear rate a* from thermo.csv, beside the kinetic theory of the steady state (constant e_n);
+    the velocity profile from trajectory.gsd. Writes shear_stress.png and shear_profile.png."""
+    from ..analysis.shear import ShearFlow
+    from ..analysis.steady import Profile
+    from ..files.trajectory import iter_states, read_state
+    from .plots import save
+
+    try:
+        cfg = load_config(run_dir / "config.toml")
+        if cfg.shear is None:
+            raise ValueError(f"{run_dir} is not a sheared run (no [shear] in its config.toml)")
+        rate = cfg.shear.rate
+        state = read_state(run_dir / "trajectory.gsd", check_overlaps=False)
+        flow = ShearFlow(rate, settle=settle).compute(run_dir / "thermo.csv", state)
+        frames = [s for s in iter_states(run_dir / "trajectory.gsd", check_overlaps=False) if s.time >= settle]
+        profile = Profile("y", bins=bins).compute(frames)
+    except (StateError, ValueError, OSError, ConfigError) as exc:
+        _fail(str(exc))
+    table = Table(title=f"uniform shear flow of {run_dir} (rate {rate:g}, t >= {settle:g})")
+    for name in ("quantity", "value", "error", "reduced (/ n k_B T)"):
+        table.add_column(name)
+    table.add_row("temperature", f"{flow.temperature:.6g}", f"{flow.temperature_error:.2g}", "")
+    for name, value in flow.pressure.items():
+        table.add_row(f"P_{name}", f"{value:.6g}", f"{flow.pressure_error[name]:.2g}", f"{flow.reduced_pressure[name]:.5g}")
+    table.add_row("viscosity -P_xy / rate", f"{flow.viscosity:.6g}", f"{flow.viscosity_error:.2g}", "")
+    table.add_row("reduced shear rate a*", f"{flow.reduced_rate:.5g}", "", "")
+    for name, value in _usf_theory(cfg, state, flow):
+        table.add_row(name, f"{value:.5g}", "", "")
+    console.print(table)
+    slope = np.polyfit(profile.centres, profile.velocity[:, 0], 1)[0]
+    console.print(f"velocity profile: d<v_x>/dy = {slope:.5g} (rate {rate:g}) over {profile.frames} frames")
+    written = [save(flow.plot(), run_dir / "shear_stress.png").name, save(_profile_plot(profile, rate), run_dir / "shear_profile.png").name]
+    console.print(f"wrote {' and '.join(written)}")
+
+
+def _profile_plot(profile, rate: float):
+    """The mean v_x against y with the imposed profile rate * y."""
+    from ..analysis._common import axes
+
+    ax = axes(None)
+    ax.plot(profile.centres, profile.velocity[:, 0], "o", label=r"$\langle v_x\rangle$")
+    ax.plot(profile.centres, rate * profile.centres, "k-", lw=1, label=rf"$\dot\gamma y$, $\dot\gamma = {rate:g}$")
+    ax.set_xlabel("y")
+    ax.set_ylabel(r"mean $v_x$")
+    ax.legend(fontsize="small")
+    return ax
+
+
 def _impact_phases(run_dir: Path, settle: float):
     """:class:`edmd.analysis.ImpactPhases` of a run directory's wall_impacts.csv after ``settle``."""
     from ..analysis.collisions import ImpactPhases
