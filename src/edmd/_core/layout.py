@@ -250,7 +250,7 @@ def pack_laws(laws, fp, ip, wall=False):
 G_LX, G_LY, G_LZ, G_HX, G_HY, G_HZ, G_GX, G_GY, G_GZ, G_ON = range(10)
 G_WALL_AXIS, G_WALL_FACE, G_WALL_WAVE, G_WALL_A, G_WALL_OMEGA, G_WALL_PHASE, G_WALL_STICK = range(10, 17)
 # Lees-Edwards boundaries (shear.py; never with a vibrating wall): the shear rate and the x offset of
-# the image box above at local time 0. A sheared geometry has 12 entries, one with a vibrating wall 17.
+# the image box above at local time 0. A sheared geometry has 12 entries, one with a vibrating wall 16 or 17.
 G_SHEAR_RATE, G_SHEAR_OFFSET = 10, 11
 N_GEO_SHEAR = 12
 

@@ -30,7 +30,7 @@ from numba.extending import overload
 
 from .jit import jit, leaf
 from .stress import free_fall_fluxes
-from .layout import A_ENERGY_INPUT, A_KE, A_KE_INT, A_LAST_T, A_PX, A_PY, A_PZ, A_RIDE_MASS, A_WALL, G_GX, G_GY, G_GZ, G_WALL_A, G_WALL_AXIS, G_WALL_FACE, G_WALL_OMEGA, G_WALL_PHASE, G_WALL_STICK, G_WALL_WAVE, NO_MOVING_WALL, R, RIDE, ROW, VX, WAVE_SINE, WAVE_TRIANGLE, X
+from .layout import A_ENERGY_INPUT, A_KE, A_KE_INT, A_LAST_T, A_PX, A_PY, A_PZ, A_RIDE_MASS, A_WALL, G_GX, G_GY, G_GZ, G_WALL_A, G_WALL_AXIS, G_WALL_FACE, G_WALL_OMEGA, G_WALL_PHASE, G_WALL_STICK, G_WALL_WAVE, N_GEO_SHEAR, NO_MOVING_WALL, R, RIDE, ROW, VX, WAVE_SINE, WAVE_TRIANGLE, X
 
 TWO_PI = 2.0 * math.pi
 INF = math.inf
@@ -44,12 +44,12 @@ def has_wall(geo):
         >>> has_wall((1.0,) * 10)
         False
     """
-    return len(geo) > G_WALL_STICK
+    return len(geo) > N_GEO_SHEAR
 
 
 @overload(has_wall, inline="always")
 def _has_wall(geo):
-    if isinstance(geo, types.BaseTuple) and len(geo) > G_WALL_STICK:
+    if isinstance(geo, types.BaseTuple) and len(geo) > N_GEO_SHEAR:
         return lambda geo: True
     return lambda geo: False
 
@@ -65,12 +65,12 @@ def wall_params(geo):
         >>> wall_params((1.0,) * 10)
         (-1.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     """
-    return tuple(geo[G_WALL_AXIS : G_WALL_PHASE + 1]) if len(geo) > G_WALL_STICK else NO_MOVING_WALL
+    return tuple(geo[G_WALL_AXIS : G_WALL_PHASE + 1]) if len(geo) > N_GEO_SHEAR else NO_MOVING_WALL
 
 
 @overload(wall_params, inline="always")
 def _wall_params(geo):
-    if isinstance(geo, types.BaseTuple) and len(geo) > G_WALL_STICK:
+    if isinstance(geo, types.BaseTuple) and len(geo) > N_GEO_SHEAR:
         return lambda geo: (geo[G_WALL_AXIS], geo[G_WALL_FACE], geo[G_WALL_WAVE], geo[G_WALL_A], geo[G_WALL_OMEGA], geo[G_WALL_PHASE])
     return lambda geo: (-1.0, 0.0, 0.0, 0.0, 0.0, 0.0)  # NO_MOVING_WALL
 
@@ -155,7 +155,7 @@ def stick_speed(geo):
         >>> stick_speed((1.0,) * 10)
         0.0
     """
-    return geo[G_WALL_STICK] if has_wall(geo) else 0.0  # (a sheared geometry has 12 entries, a vibrating wall's 17)
+    return geo[G_WALL_STICK] if len(geo) > G_WALL_STICK else 0.0
 
 
 @overload(stick_speed, inline="always")
@@ -209,7 +209,7 @@ def _ride_piece(t, geo):
 
 def vibrating_type(geo):
     """Whether the Numba type of a geometry is that of a run with a vibrating wall (typing time)."""
-    return isinstance(geo, types.BaseTuple) and len(geo) > G_WALL_STICK
+    return isinstance(geo, types.BaseTuple) and len(geo) > N_GEO_SHEAR  # (a sheared geometry has 12 entries, a vibrating wall's 16 or 17)
 
 
 # The hooks below are the only doors from the event loop into the riders' code. Each is an

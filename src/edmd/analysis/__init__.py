@@ -17,7 +17,7 @@ from ._common import compressibility_factor, contact_value, maxwell_speed_pdf
 from .collisions import CollisionStatistics, ImpactPhases, impact_angle_pdf, impact_speed_pdf
 from .dynamics import MSD, msd_window
 from .packing import ContactNetwork, contact_pairs, rattlers
-from .shear import ShearFlow, dilute_viscosity, usf_collision_frequency
+from .shear import ShearFlow, dilute_viscosity, usf_collision_frequency, usf_grad, usf_temperature
 from .steady import Profile, SteadyState, blocking_errors
 from .structure import RDF, pair_histogram
 from .thermal import AlgebraicCooling, HaffLaw, Pressure, Temperature, VelocityDistribution, sonine_a2
@@ -49,6 +49,8 @@ __all__ = [
     "enskog_viscosity",
     "dilute_viscosity",
     "usf_collision_frequency",
+    "usf_grad",
+    "usf_temperature",
     "rattlers",
     "impact_angle_pdf",
     "impact_speed_pdf",

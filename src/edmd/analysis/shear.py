@@ -1,13 +1,13 @@
-r"""Uniform shear flow (Lees-Edwards, :class:`edmd.Shear`): steady-state rheology from a thermo table
-(physics.md §5.7).
+r"""Uniform shear flow (Lees-Edwards, :class:`edmd.Shear`): steady-state rheology from a thermo table,
+and the kinetic theory of the steady uniform shear flow of a granular gas (physics.md §5.8).
 
 In the steady state of a sheared system at rate :math:`\dot\gamma` the thermo table's rows hold
 the temperature and the pressure tensor relative to the flow (peculiar velocities) over each
 interval. :class:`ShearFlow` averages them after a settling time with blocking errors
 (:class:`.SteadyState`) and reports the shear viscosity :math:`\eta = -P_{xy}/\dot\gamma`, the
-normal-stress differences and the reduced shear rate :math:`a^* = \dot\gamma/\nu` with the
-collision frequency :math:`\nu = p/\eta_0` of the kinetic theory of uniform shear flow
-(:func:`usf_collision_frequency`).
+reduced pressure tensor and the reduced shear rate :math:`a^* = \dot\gamma/(\chi\nu)` with the
+collision frequency :math:`\nu = p/\eta_0` (:func:`usf_collision_frequency`) and Enskog's factor
+:math:`\chi` (the contact value), which :func:`usf_grad` predicts for inelastic hard spheres.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from ._common import axes
+from ._common import axes, contact_value
 from .steady import SteadyState
 from .thermal import _thermo_table
 
@@ -37,8 +37,59 @@ def dilute_viscosity(dim: int, sigma: float = 1.0, mass: float = 1.0, kT: float 
 
 def usf_collision_frequency(number_density: float, dim: int, sigma: float = 1.0, mass: float = 1.0, kT: float = 1.0) -> float:
     r"""The collision frequency :math:`\nu = p/\eta_0 = nk_BT/\eta_0` (:func:`dilute_viscosity`) that
-    reduces the shear rate of uniform shear flow, :math:`a^* = \dot\gamma/\nu` (physics.md §5.7)."""
+    reduces the shear rate of uniform shear flow, :math:`a^* = \dot\gamma/\nu` (physics.md §5.8):
+    :math:`\tfrac{16}{5}\sqrt\pi\,n\sigma^2\sqrt{k_BT/m}` (3D), :math:`2\sqrt\pi\,n\sigma\sqrt{k_BT/m}` (2D).
+
+    Example:
+        >>> round(usf_collision_frequency(1.0, 3), 4), round(usf_collision_frequency(1.0, 2), 4)
+        (5.6719, 3.5449)
+    """
     return number_density * kT / dilute_viscosity(dim, sigma, mass, kT)
+
+
+def usf_grad(alpha: float, dim: int) -> dict[str, float]:
+    r"""The steady uniform shear flow of dilute smooth inelastic hard spheres (3D) or disks (2D) with
+    restitution :math:`\alpha`, by Grad's method with the linear closure (physics.md §5.8):
+
+    .. math::
+        \zeta^* = \frac{d+2}{4d}(1-\alpha^2),\quad \nu^*_\eta = \frac{(1+\alpha)(2d+3-3\alpha)}{4d},\quad
+        P^*_{yy} = 1 - \frac{\zeta^*}{\nu^*_\eta},\quad P^*_{xx} = 1 + (d-1)\frac{\zeta^*}{\nu^*_\eta},\quad
+        a^{*2} = \frac d2\,\frac{\zeta^*\nu_\eta^{*2}}{\nu^*_\eta - \zeta^*},\quad P^*_{xy} = -\frac{a^*P^*_{yy}}{\nu^*_\eta}
+
+    (pressures in units of :math:`nk_BT`, :math:`a^* = \dot\gamma/\nu`, :func:`usf_collision_frequency`;
+    :math:`P^*_{zz} = P^*_{yy}`). Returns ``a``, ``xx``, ``yy``, ``xy``, ``viscosity`` (:math:`\eta^* = -P^*_{xy}/a^*`),
+    ``zeta``, ``nu_eta``.
+
+    Example:
+        >>> {k: round(v, 4) for k, v in usf_grad(0.9, 3).items() if k in ("a", "xy", "yy")}
+        {'a': 0.3587, 'yy': 0.9206, 'xy': -0.3311}
+    """
+    if dim not in (2, 3):
+        raise ValueError(f"dim must be 2 or 3, got {dim}")
+    if not 0.0 <= alpha < 1.0:
+        raise ValueError(f"alpha must be in [0, 1) (an elastic gas has no steady shear flow), got {alpha}")
+    zeta = (dim + 2) / (4 * dim) * (1 - alpha**2)
+    nu = (1 + alpha) * (2 * dim + 3 - 3 * alpha) / (4 * dim)
+    a = math.sqrt(dim / 2 * zeta * nu**2 / (nu - zeta))
+    yy = 1 - zeta / nu
+    return {"a": a, "yy": yy, "xx": 1 + (dim - 1) * zeta / nu, "xy": -a * yy / nu, "viscosity": yy / nu, "zeta": zeta, "nu_eta": nu}
+
+
+def usf_temperature(rate: float, packing_fraction: float, alpha: float, dim: int, sigma: float = 1.0, mass: float = 1.0) -> float:
+    r"""The steady temperature of uniform shear flow at rate :math:`\dot\gamma`: the :math:`T` at which
+    :math:`\dot\gamma/(\chi\nu(T))` is Grad's :math:`a^*(\alpha)` (:func:`usf_grad`), with Enskog's :math:`\chi` at
+    the packing fraction:
+
+    .. math::
+        k_BT = m\Big[\frac{\dot\gamma}{a^*\chi\,c_d\,n\sigma^{d-1}}\Big]^2,\qquad c_3 = \tfrac{16}{5}\sqrt\pi,\; c_2 = 2\sqrt\pi .
+
+    Example:
+        >>> round(usf_temperature(0.02, 0.005, 0.9, 3), 3)
+        1.034
+    """
+    n = packing_fraction / (math.pi / 6 * sigma**3 if dim == 3 else math.pi / 4 * sigma**2)
+    nu1 = usf_collision_frequency(n, dim, sigma, mass, 1.0)  # at k_BT = 1; it grows as sqrt(T)
+    return (abs(rate) / (usf_grad(alpha, dim)["a"] * contact_value(packing_fraction, dim) * nu1)) ** 2
 
 
 class ShearFlow:
@@ -54,8 +105,8 @@ class ShearFlow:
         pressure, pressure_error: dicts of the mean pressure tensor components (``"xx"``, ``"xy"``, ...)
             and their errors.
         viscosity, viscosity_error: :math:`\eta = -P_{xy}/\dot\gamma`.
-        reduced_rate: :math:`a^* = \dot\gamma/\nu(T)` (:func:`usf_collision_frequency`; monodisperse
-            systems only, ``nan`` otherwise).
+        reduced_rate: :math:`a^* = \dot\gamma/(\chi\nu(T))` (:func:`usf_collision_frequency`, Enskog's
+            :math:`\chi` at the packing fraction; monodisperse systems only, ``nan`` otherwise).
         reduced_pressure: the components divided by :math:`p = nk_BT` (the kinetic-theory :math:`P^*_{ab}`).
         time, series: the rows used and their ``pressure_xy`` and ``temperature`` (for plots).
 
@@ -97,7 +148,8 @@ class ShearFlow:
         kinetic = n * self.temperature
         self.reduced_pressure = {name: value / kinetic for name, value in self.pressure.items()}
         mono = bool(np.all(state.radius == state.radius[0]) and np.all(state.mass == state.mass[0]))
-        nu = usf_collision_frequency(n, state.dim, 2.0 * state.radius[0], state.mass[0], self.temperature) if mono else math.nan
+        chi = contact_value(state.packing_fraction, state.dim)
+        nu = chi * usf_collision_frequency(n, state.dim, 2.0 * state.radius[0], state.mass[0], self.temperature) if mono else math.nan
         self.reduced_rate = abs(self.rate) / nu
         time = np.asarray(table["time"], float)
         keep = (time >= self.settle) & np.isfinite(np.asarray(table["pressure_xy"], float))
