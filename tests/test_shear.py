@@ -140,3 +140,38 @@ def test_config_section_and_refusals():
     assert cfg.shear.build() == edmd.Shear(0.3) and cfg.shear.profile
     with pytest.raises(edmd.ConfigError, match="walls.axes may hold 'z' only"):
         edmd.parse_config(tomllib.loads('[system]\nn = 100\npacking_fraction = 0.1\n[walls]\naxes = ["y"]\n[shear]\nrate = 0.3\n'))
+
+
+def test_grad_theory_limits_and_balance(dim):
+    # the steady energy balance -2/d a* P*_xy = zeta*, and the elastic limit: no normal-stress
+    # differences, a* -> 0, eta* -> 1 (the first-Sonine viscosity)
+    from edmd.analysis import dilute_viscosity, usf_collision_frequency, usf_grad
+
+    for alpha in (0.3, 0.7, 0.9, 0.99):
+        g = usf_grad(alpha, dim)
+        assert -2.0 / dim * g["a"] * g["xy"] == pytest.approx(g["zeta"], rel=1e-12)
+        assert g["xx"] + (dim - 1) * g["yy"] == pytest.approx(dim, rel=1e-12)  # the trace is d p
+    near = usf_grad(1.0 - 1e-9, dim)
+    assert near["a"] < 1e-4 and near["viscosity"] == pytest.approx(1.0, rel=1e-6) and near["yy"] == pytest.approx(1.0, abs=1e-8)
+    assert usf_collision_frequency(0.3, dim, 1.0, 1.0, 2.0) == pytest.approx(0.3 * 2.0 / dilute_viscosity(dim, 1.0, 1.0, 2.0))
+
+
+def test_cli_shear_reports_the_steady_flow(tmp_path):
+    from typer.testing import CliRunner
+
+    from edmd.app.cli import app
+
+    config = tmp_path / "c.toml"
+    config.write_text('[system]\ndim = 2\nn = 400\npacking_fraction = 0.02\n[collision]\nrule = "inelastic"\ne_n = 0.8\n'
+                      "[shear]\nrate = 0.05\n[run]\nuntil_time = 300.0\noutput_interval = 2.0\n")  # fmt: skip
+    runner = CliRunner()
+    r = runner.invoke(app, ["run", str(config), "--out", str(tmp_path / "run"), "--no-progress"])
+    assert r.exit_code == 0, r.output
+    r = runner.invoke(app, ["shear", str(tmp_path / "run"), "--settle", "100"])
+    assert r.exit_code == 0, r.output
+    assert "Grad theory a*" in r.output and "velocity profile" in r.output
+    assert (tmp_path / "run" / "shear_stress.png").exists() and (tmp_path / "run" / "shear_profile.png").exists()
+    (tmp_path / "plain").mkdir()
+    (tmp_path / "plain" / "config.toml").write_text("[system]\nn = 10\npacking_fraction = 0.01\n")
+    r = runner.invoke(app, ["shear", str(tmp_path / "plain")])
+    assert r.exit_code != 0 and "not a sheared run" in r.output and "Traceback" not in r.output
