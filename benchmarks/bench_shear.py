@@ -16,21 +16,17 @@ from __future__ import annotations
 
 import argparse
 import statistics
-import time
 
 import edmd
+from bench_driven import rate
 from bench_hard_spheres import write_results
 
 
 def measure(state: edmd.State, warm: float, collisions: float, **physics) -> float:
-    """M collisions/s (CPU) of a fresh simulation of ``state`` over ``collisions`` per particle after ``warm``."""
+    """M collisions/s (CPU) of a fresh simulation of ``state`` over ``collisions`` per particle after ``warm`` events per particle."""
     sim = edmd.Simulation(state, **physics)
-    n = state.n
-    sim.run(max_events=int(warm * n))
-    c0, t0 = sim.collisions, time.process_time()
-    while sim.collisions - c0 < collisions * n:
-        sim.run(max_events=n)
-    return (sim.collisions - c0) / (time.process_time() - t0) / 1e6
+    sim.run(max_events=int(warm * state.n))
+    return rate(sim, collisions)
 
 
 def main():

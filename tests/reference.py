@@ -13,6 +13,17 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 
+def _contact_times(dr, dv, a, sig):
+    """Contact time of every pair at separations ``dr`` moving with ``dv`` (``a = |dv|^2``): the
+    textbook root, 0 for overlapping approaching pairs, inf for receding ones."""
+    b = np.einsum("ijk,ijk->ij", dr, dv)
+    c = np.einsum("ijk,ijk->ij", dr, dr) - sig**2
+    disc = b * b - a * c
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t = np.where((b < 0) & (disc > 0), c / (-b + np.sqrt(np.maximum(disc, 0))), np.inf)
+    return np.where((b < 0) & (c <= 0), 0.0, t)
+
+
 def _pair_times(pos, vel, radius, box, periodic):
     """Earliest contact time of every pair over all 3^d image shifts (periodic axes); also the best shift."""
     n, d = pos.shape
@@ -26,12 +37,7 @@ def _pair_times(pos, vel, radius, box, periodic):
     for s in itertools.product(*[(-1, 0, 1) if p else (0,) for p in periodic]):
         shift = np.asarray(s, float) * box
         dr = dr0 + shift
-        b = np.einsum("ijk,ijk->ij", dr, dv)
-        c = np.einsum("ijk,ijk->ij", dr, dr) - sig**2
-        disc = b * b - a * c
-        with np.errstate(invalid="ignore", divide="ignore"):
-            t = np.where((b < 0) & (disc > 0), c / (-b + np.sqrt(np.maximum(disc, 0))), np.inf)
-        t = np.where((b < 0) & (c <= 0), 0.0, t)
+        t = _contact_times(dr, dv, a, sig)
         better = t < best
         best = np.where(better, t, best)
         best_shift[better] = shift
@@ -209,12 +215,7 @@ def _sheared_pair_times(pos, vel, radius, box, rate, offset):
             dr[..., 0] += s[0] * box[0]
             if d == 3:
                 dr[..., 2] += s[1] * box[2]
-            b = np.einsum("ijk,ijk->ij", dr, dv1)
-            c = np.einsum("ijk,ijk->ij", dr, dr) - sig**2
-            disc = b * b - a * c
-            with np.errstate(invalid="ignore", divide="ignore"):
-                t = np.where((b < 0) & (disc > 0), c / (-b + np.sqrt(np.maximum(disc, 0))), np.inf)
-            t = np.where((b < 0) & (c <= 0), 0.0, t)
+            t = _contact_times(dr, dv1, a, sig)
             better = t < best
             best = np.where(better, t, best)
             best_dr[better] = dr[better]

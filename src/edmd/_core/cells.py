@@ -148,15 +148,8 @@ def cell_block(grid, c, geo, out, axis, step):
     n = sheared_block(grid, c, geo, out, axis, step)
     if n >= 0:
         return n
-    gi = grid.shape
-    nx, ny, nz = gi[0], gi[1], gi[2]
-    cz = c % nz
-    cy = (c // nz) % ny
-    cx = c // (nz * ny)
+    nx, ny, nz, cx, cy, cz, lox, hix, loy, hiy, loz, hiz = _block_frame(grid, c, axis, step)
     px, py, pz = geo[3] < INF, geo[4] < INF, geo[5] < INF
-    lox, hix = _offsets(0, nx, axis, step)
-    loy, hiy = _offsets(1, ny, axis, step)
-    loz, hiz = _offsets(2, nz, axis, step)
     n = 0
     for ox in range(lox, hix + 1):
         x2 = _shift(cx, ox, nx, px)
@@ -166,26 +159,39 @@ def cell_block(grid, c, geo, out, axis, step):
             y2 = _shift(cy, oy, ny, py)
             if y2 < 0:
                 continue
-            for oz in range(loz, hiz + 1):
-                z2 = _shift(cz, oz, nz, pz)
-                if z2 < 0:
-                    continue
-                out[n] = (x2 * ny + y2) * nz + z2
-                n += 1
+            n = _z_column(out, n, x2, y2, cz, loz, hiz, ny, nz, pz)
     return n
 
 
 @leaf
-def _sheared_block(grid, c, geo, out, axis, step):
+def _block_frame(grid, c, axis, step):
+    """Cells per axis, the coordinates of cell ``c`` and the offsets searched on each axis (:func:`_offsets`)."""
     gi = grid.shape
     nx, ny, nz = gi[0], gi[1], gi[2]
     cz = c % nz
     cy = (c // nz) % ny
     cx = c // (nz * ny)
-    pz = geo[5] < INF
     lox, hix = _offsets(0, nx, axis, step)
     loy, hiy = _offsets(1, ny, axis, step)
     loz, hiz = _offsets(2, nz, axis, step)
+    return nx, ny, nz, cx, cy, cz, lox, hix, loy, hiy, loz, hiz
+
+
+@leaf
+def _z_column(out, n, x2, y2, cz, loz, hiz, ny, nz, pz):
+    """Append the cells ``(x2, y2, cz + oz)`` for ``oz`` in ``[loz, hiz]`` to ``out[n:]``; returns the new count."""
+    for oz in range(loz, hiz + 1):
+        z2 = _shift(cz, oz, nz, pz)
+        if z2 >= 0:
+            out[n] = (x2 * ny + y2) * nz + z2
+            n += 1
+    return n
+
+
+@leaf
+def _sheared_block(grid, c, geo, out, axis, step):
+    nx, ny, nz, cx, cy, cz, lox, hix, loy, hiy, loz, hiz = _block_frame(grid, c, axis, step)
+    pz = geo[5] < INF
     n = 0
     for oy in range(loy, hiy + 1):
         y2 = _shift(cy, oy, ny, True)
@@ -194,13 +200,7 @@ def _sheared_block(grid, c, geo, out, axis, step):
             continue
         x0, x1 = (0, nx - 1) if across else (lox, hix)
         for ox in range(x0, x1 + 1):
-            x2 = ox if across else _shift(cx, ox, nx, True)
-            for oz in range(loz, hiz + 1):
-                z2 = _shift(cz, oz, nz, pz)
-                if z2 < 0:
-                    continue
-                out[n] = (x2 * ny + y2) * nz + z2
-                n += 1
+            n = _z_column(out, n, ox if across else _shift(cx, ox, nx, True), y2, cz, loz, hiz, ny, nz, pz)
     return n
 
 
