@@ -40,4 +40,3 @@ def stream_all(P, image, tag, t, d, geo):
             img[u, k] = m
             vel[u, k] = v[k]
     return pos, vel, img
-
