@@ -41,11 +41,13 @@ def _neighbour_cells(c, n, periodic, out):
 
 
 @njit(cache=True)
-def pair_histogram(points, box, periodic, r_max, nbins):
+def pair_histogram(points, box, periodic, r_max, nbins, shear_offset=0.0):
     """Counts of unordered pairs by distance in ``nbins`` equal bins on ``[0, r_max)``.
 
-    Minimum image on periodic axes; a cell list with cells of edge ``>= r_max`` (all cells of an
-    axis with fewer than 3 of them), so the cost is :math:`O(N)` per frame.
+    Minimum image on periodic axes (with Lees-Edwards images offset along x by ``shear_offset``,
+    :attr:`edmd.State.shear_offset`); a cell list with cells of edge ``>= r_max`` (all cells of an
+    axis with fewer than 3 of them; under shear, the whole row across the y face), so the cost is
+    :math:`O(N)` per frame.
     """
     n = points.shape[0]
     nc = np.empty(3, np.int64)
@@ -63,27 +65,44 @@ def pair_histogram(points, box, periodic, r_max, nbins):
     counts = np.zeros(nbins, np.int64)
     nb = np.empty((3, 3), np.int64)
     m = np.empty(3, np.int64)
+    every_x = np.arange(nc[0])
     scale = nbins / r_max
     r2max = r_max * r_max
+    sheared = shear_offset != 0.0
     for i in range(n):
         for k in range(3):
             m[k] = _neighbour_cells(cell[i, k], nc[k], periodic[k], nb[k])
-        for a in range(m[0]):
-            for b in range(m[1]):
+        for b in range(m[1]):
+            y2 = nb[1, b]
+            across = sheared and (nc[1] < 3 or abs(y2 - cell[i, 1]) > 1)  # (the row across the sliding face: all of it)
+            xs = every_x if across else nb[0, : m[0]]
+            for x2 in xs:
                 for cc in range(m[2]):
-                    j = head[(nb[0, a] * nc[1] + nb[1, b]) * nc[2] + nb[2, cc]]
+                    j = head[(x2 * nc[1] + y2) * nc[2] + nb[2, cc]]
                     while j >= 0:
                         if j > i:
-                            r2 = 0.0
-                            for k in range(3):
-                                d = points[i, k] - points[j, k]
-                                if periodic[k]:
-                                    d -= box[k] * np.rint(d / box[k])
-                                r2 += d * d
+                            r2 = _image_distance2(points, i, j, box, periodic, shear_offset)
                             if r2 < r2max:
                                 counts[min(int(math.sqrt(r2) * scale), nbins - 1)] += 1
                         j = nxt[j]
     return counts
+
+
+@njit(cache=True)
+def _image_distance2(points, i, j, box, periodic, shear_offset):
+    """Squared minimum-image distance of ``i`` and ``j`` (the y image first: it shifts x by the offset)."""
+    dx = points[i, 0] - points[j, 0]
+    dy = points[i, 1] - points[j, 1]
+    dz = points[i, 2] - points[j, 2]
+    if periodic[1]:
+        s = np.rint(dy / box[1])
+        dy -= box[1] * s
+        dx -= shear_offset * s
+    if periodic[0]:
+        dx -= box[0] * np.rint(dx / box[0])
+    if periodic[2]:
+        dz -= box[2] * np.rint(dz / box[2])
+    return dx * dx + dy * dy + dz * dz
 
 
 #: :math:`\int\prod_{k\in S}|n_k|\,d\Omega` over the unit sphere (3D) or circle (2D) for :math:`|S|` = 0, 1, 2, 3
@@ -186,7 +205,7 @@ class RDF:
         box, _ = s.geometry()
         periodic = np.zeros(3, np.bool_)
         periodic[: s.dim] = s.periodic
-        counts = pair_histogram(s.points, box, periodic, r_max, self.bins)
+        counts = pair_histogram(s.points, box, periodic, r_max, self.bins, s.shear_offset)
         closed = _accessible_lengths(s)
         volume = float(np.prod(s.box[s.periodic]) * np.prod(closed))
         self._sum += 2.0 * counts / (s.n * (s.n - 1) / volume * _shell_volumes(self.bin_edges, s.dim, closed))

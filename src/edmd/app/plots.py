@@ -20,7 +20,7 @@ import numpy as np
 from matplotlib.ticker import NullFormatter
 
 from ..files.atomic import atomic_path
-from ..analysis import MSD, RDF, AlgebraicCooling, HaffLaw, Profile, VelocityDistribution, compressibility_factor
+from ..analysis import MSD, RDF, AlgebraicCooling, HaffLaw, Profile, VelocityDistribution, compressibility_factor, usf_temperature
 from ..analysis._common import axes, each_state
 from ..analysis.thermal import _thermo_table
 from .config import Config, ConfigError, load_config
@@ -465,7 +465,7 @@ def _read_run(run_dir: Path, traj: Path, frames: int) -> _Run:
 
 
 def _run_kind(cfg: Config | None, n: int | None, gravity) -> str:
-    """``single`` (N = 1), ``emdstar``, ``vibrated`` (a vibrating wall), ``well`` (square wells), ``elastic``, ``granular`` (constant e_n),
+    """``single`` (N = 1), ``emdstar``, ``sheared``, ``vibrated`` (a vibrating wall), ``well`` (square wells), ``elastic``, ``granular`` (constant e_n),
     ``rough``, ``viscoelastic`` or ``other``.
 
     ``other``: no config.toml, the DEM, or gravity on many particles (no homogeneous law applies).
@@ -476,6 +476,8 @@ def _run_kind(cfg: Config | None, n: int | None, gravity) -> str:
         return "other"
     if cfg.collision.rule == "emdstar":
         return "emdstar"
+    if cfg.shear is not None:
+        return "sheared"
     if cfg.vibration is not None:
         return "vibrated"
     if cfg.well is not None:  # (not the hard-sphere equation of state: the temperature, and the rdf's jump)
@@ -528,6 +530,18 @@ def _cooling_law(run: _Run, table):
     return None
 
 
+def _sheared_temperature(run: _Run, table):
+    """T(t) of a sheared run (relative to the flow) with the steady temperature of Grad's theory of
+    uniform shear flow for smooth monodisperse particles of constant e_n < 1 (physics.md §5.8)."""
+    ax = plot_temperature(table)
+    c, first = run.config.collision, run.first
+    if c.rule == "inelastic" and c.e_n is not None and c.e_n < 1.0 and c.tc is None and first is not None and np.all(first.radius == first.radius[0]):
+        kT = usf_temperature(run.config.shear.rate, first.packing_fraction, c.e_n, first.dim, 2.0 * float(first.radius[0]), float(first.mass[0]))
+        ax.axhline(kT, color="k", ls="--", lw=1, label=f"steady shear flow, Grad: {kT:.4g}")
+        ax.legend(fontsize="small")
+    return ax
+
+
 def _purpose_figure(run: _Run, table, traj: Path) -> tuple[str, object] | None:
     """The figure of what the run is for, with its file stem."""
     if run.kind == "single":
@@ -538,6 +552,8 @@ def _purpose_figure(run: _Run, table, traj: Path) -> tuple[str, object] | None:
         return "pressure", plot_pressure(table, _frames(traj, start=max(frame_count(traj) - 5, 0)))
     if run.kind == "rough":
         return "temperature", plot_rough_temperature(table)
+    if run.kind == "sheared":
+        return "temperature", _sheared_temperature(run, table)
     if run.kind == "vibrated" and run.first is not None:  # the bed's profiles over the second half of the run
         axis = run.config.vibration.axis
         profile = Profile(axis, bins=40).compute(_frames(traj, start=frame_count(traj) // 2))
@@ -570,12 +586,14 @@ def _snapshot_view(run: _Run) -> str:
 def _frame_figures(run: _Run, traj: Path, frames: int, color_by: str) -> dict:
     n = run.first.n
     last = list(_frames(traj, start=max(frames - 5, 0), keep=sample_particles(n, MAX_PARTICLES)))
+    shear = None if run.config is None or run.config.shear is None else run.config.shear.build()
     drawn = {}
-    if n > 1 and all(s.temperature() > 0 for s in last):  # particles at rest have no distribution
-        drawn["velocity_distribution"] = VelocityDistribution().compute(last).plot()
+    flowing = last if shear is None else [dataclasses.replace(s, velocity=shear.peculiar_velocity(s), check_overlaps=False) for s in last]
+    if n > 1 and all(s.temperature() > 0 for s in flowing):  # particles at rest have no distribution
+        drawn["velocity_distribution"] = VelocityDistribution().compute(flowing).plot()  # (sheared: relative to the flow)
     if n > 1 and not run.has_gravity:  # a settling column has no uniform density to normalise g(r) by
         drawn["rdf"] = _rdf(last).plot()
-    if n > 1 and frames >= 2:
+    if n > 1 and frames >= 2 and shear is None:  # (sheared: x displacements are the flow's, not diffusion)
         drawn["msd"] = _msd(run, traj, frames).plot()
     drawn["snapshot"] = plot_snapshot(read_state(traj, -1, check_overlaps=False), color_by, view=_snapshot_view(run))
     return drawn
@@ -590,8 +608,8 @@ def run_figures(run_dir: str | os.PathLike, color_by: str = "speed") -> dict:
     DEM, gravity or no config.toml: T(t)), ``pressure`` (elastic: P and Z against the
     equation of state), ``emd_exceptions`` (eMD*) or ``height`` (a single particle), and
     ``energy``. From ``trajectory.gsd``: ``velocity_distribution`` and ``rdf`` (last 5 frames;
-    no g(r) under gravity), ``msd`` (every frame, averaged over time origins for elastic runs
-    only, from the first frame for cooling ones) and ``snapshot`` (last frame; a side view
+    no g(r) under gravity; sheared runs: peculiar velocities), ``msd`` (every frame, averaged over time origins for elastic runs
+    only, from the first frame for cooling ones; not for sheared runs) and ``snapshot`` (last frame; a side view
     for 3D runs with gravity). Every Figure is titled with the run's name and key parameters.
 
     Example:
