@@ -502,6 +502,7 @@ def _run_label(run_dir: Path, run: _Run, n: int | None) -> str:
         rule += [f"{short} = {getattr(c, key):.3g}" for key, short in _PARAMETERS.items() if getattr(c, key, None) is not None]
         rule += [f"walls {''.join(cfg.walls.axes)}"] if cfg.walls.axes else []
         rule += [f"square well {cfg.well.width:.3g} x sigma, depth {cfg.well.depth:.3g}"] if cfg.well is not None else []
+        rule += [f"shear rate {cfg.shear.rate:.3g}"] if cfg.shear is not None else []
     if run.has_gravity:
         rule.append("g = (" + ", ".join(f"{g:.3g}" for g in run.gravity) + ")")
     name = run_dir.resolve().name
