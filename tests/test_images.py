@@ -55,7 +55,7 @@ def test_minimum_image_is_the_nearest_of_all_sliding_images(dim, offset):
                 for sz in (-1, 0, 1) if dim == 3 else (0,):
                     e = d3 - np.array([sx * box[0] + sy * offset, sy * box[1], sz * (box[2] if dim == 3 else 0.0)])
                     if best is None or e @ e < best[0] @ best[0]:
-                        best = (e, -sy * 0.25 * box[1])
+                        best = (e, sy * 0.25 * box[1])
         if best[0] @ best[0] < (0.5 * box.min()) ** 2:
             near += 1
             assert np.allclose([dx, dy, dz], best[0], atol=1e-12)

@@ -36,11 +36,11 @@ from .wallmotion import start_ride, sticks, wall_velocity
 @leaf
 def contact_normal(P, i, j, geo):
     """Unit normal from ``j`` to ``i``, the centre distance (minimum image; rows streamed to the
-    same time) and the change of the relative x velocity that goes with the image (shear, :mod:`.images`)."""
-    dx, dy, dz, ux = shear_image(P[i, L.X] - P[j, L.X], P[i, L.Y] - P[j, L.Y], P[i, L.Z] - P[j, L.Z], P[i, L.T], geo)
+    same time) and the x velocity of ``j``'s image besides ``v_j`` (shear, :func:`.images.shear_image`)."""
+    dx, dy, dz, uj = shear_image(P[i, L.X] - P[j, L.X], P[i, L.Y] - P[j, L.Y], P[i, L.Z] - P[j, L.Z], P[i, L.T], geo)
     r = math.sqrt(dx * dx + dy * dy + dz * dz)
     inv = 1.0 / r
-    return dx * inv, dy * inv, dz * inv, r, ux
+    return dx * inv, dy * inv, dz * inv, r, uj
 
 
 @leaf
@@ -158,9 +158,9 @@ def collide_pair(t, P, mass, omega, inertia, tlast, i, j, geo, fp, ip, etab, acc
     Adds :math:`\\mathbf r_{ij}\\cdot\\mathbf J` to the virial, the kinetic-energy change to
     ``acc[A_KE]`` (translational) and the energy lost to ``acc[A_DISSIPATED]``.
     """
-    nx, ny, nz, r, ux = contact_normal(P, i, j, geo)
+    nx, ny, nz, r, uj = contact_normal(P, i, j, geo)
     spin = tangent != TANGENT_SMOOTH
-    gx = P[i, L.VX] - P[j, L.VX] + ux
+    gx = P[i, L.VX] - P[j, L.VX] - uj
     gy = P[i, L.VY] - P[j, L.VY]
     gz = P[i, L.VZ] - P[j, L.VZ]
     gn = gx * nx + gy * ny + gz * nz
@@ -194,9 +194,9 @@ def collide_pair(t, P, mass, omega, inertia, tlast, i, j, geo, fp, ip, etab, acc
     ei1 = particle_energy(P, mass, omega, inertia, i, turns)
     ej1 = particle_energy(P, mass, omega, inertia, j, turns)
     pair_energy_current(acc, P, i, j, ei0, ej0, ei1, ej1, jx / mi, jy / mi, jz / mi, -jx / mj, -jy / mj, -jz / mj, r * nx, r * ny, r * nz)
-    if spin:  # (the rows' energies: across a sheared face, j's image moves with v_j - u_x)
-        dk = particle_energy(P, mass, omega, inertia, i, False) + particle_energy(P, mass, omega, inertia, j, False) - k0 + ux * jx
-        lost = ei0 + ej0 - ei1 - ej1 - ux * jx  # (spin: turns)
+    if spin:  # (the rows' energies: across a sheared face, j's image moves with v_j + u_j)
+        dk = particle_energy(P, mass, omega, inertia, i, False) + particle_energy(P, mass, omega, inertia, j, False) - k0 - uj * jx
+        lost = ei0 + ej0 - ei1 - ej1 + uj * jx  # (spin: turns)
     else:  # smooth: physics.md §2.1, Delta E = -mu (1 - e^2) g_n^2 / 2, spins untouched
         dk = -0.5 * (1.0 - e * e) * gn * gn / inv_mu
         lost = -dk

@@ -23,7 +23,7 @@ def close_pairs(pos, radius, geo, grid, scale):
         nc, s, j = walk_around(grid, grid.cell[i], geo, cbuf)
         while j >= 0:
             if j > i:
-                dx, dy, dz, _ux = shear_image(pos[i, 0] - pos[j, 0], pos[i, 1] - pos[j, 1], pos[i, 2] - pos[j, 2], 0.0, geo)
+                dx, dy, dz, _uj = shear_image(pos[i, 0] - pos[j, 0], pos[i, 1] - pos[j, 1], pos[i, 2] - pos[j, 2], 0.0, geo)
                 sig = scale * (radius[i] + radius[j])
                 r2 = dx * dx + dy * dy + dz * dz
                 if r2 < sig * sig:

@@ -67,7 +67,7 @@ def collide_growing(P, mass, omega, inertia, i, j, geo, fp, acc, rate):
     :math:`\tfrac12\mu(1 - e_n^2)u^2` is dissipated and the rest is the work of the growth (energy input).
     Returns the normal impact speed of the surfaces, :math:`-u`.
     """
-    nx, ny, nz, r, _ux = contact_normal(P, i, j, geo)  # (never sheared)
+    nx, ny, nz, r, _uj = contact_normal(P, i, j, geo)  # (never sheared)
     gn = (P[i, L.VX] - P[j, L.VX]) * nx + (P[i, L.VY] - P[j, L.VY]) * ny + (P[i, L.VZ] - P[j, L.VZ]) * nz
     ds = (P[i, L.R] + P[j, L.R]) * rate
     u = gn - ds

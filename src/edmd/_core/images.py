@@ -82,26 +82,27 @@ def image_offset(t, geo):
 
 @leaf
 def _sheared_image(dx, dy, dz, t, geo):
-    ux = 0.0
+    uj = 0.0
     if dy > geo[G_HY]:  # j's image above
         dy -= geo[G_LY]
         dx -= image_offset(t, geo)
-        ux = -geo[G_SHEAR_RATE] * geo[G_LY]
+        uj = geo[G_SHEAR_RATE] * geo[G_LY]
     elif dy < -geo[G_HY]:  # j's image below
         dy += geo[G_LY]
         dx += image_offset(t, geo)
-        ux = geo[G_SHEAR_RATE] * geo[G_LY]
-    return wrap_delta(dx, geo[G_LX], geo[G_HX]), dy, wrap_delta(dz, geo[G_LZ], geo[G_HZ]), ux
+        uj = -geo[G_SHEAR_RATE] * geo[G_LY]
+    return wrap_delta(dx, geo[G_LX], geo[G_HX]), dy, wrap_delta(dz, geo[G_LZ], geo[G_HZ]), uj
 
 
 def shear_image(dx, dy, dz, t, geo):
-    """Minimum image of the separation ``r_i - r_j`` at local time ``t`` and the change ``u_x`` of
-    the relative x velocity that goes with it (0 in an unsheared box).
+    """Minimum image of the separation ``r_i - r_j`` at local time ``t`` and the x velocity ``u_j``
+    that the image of ``j`` moves with besides ``v_j`` (0 in an unsheared box): the relative
+    velocity is ``v_i - v_j - u_j`` (a subtraction, so that ``u_j = 0`` folds away).
 
     Example:
         >>> geo = (10.0, 10.0, 10.0, 5.0, 5.0, 5.0, 0.0, 0.0, 0.0, 0.0, 0.1, 2.0)  # rate 0.1, offset 2
         >>> [round(v, 12) for v in shear_image(0.5, 9.0, 0.0, 0.0, geo)]   # j seen through the image above
-        [-1.5, -1.0, 0.0, -1.0]
+        [-1.5, -1.0, 0.0, 1.0]
     """
     if sheared(geo):
         return _sheared_image(dx, dy, dz, t, geo)

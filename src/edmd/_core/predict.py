@@ -83,8 +83,8 @@ def advance(P, i, t, geo):
 def relative_to(xi, yi, zi, vxi, vyi, vzi, P, j, t, geo):
     """Minimum-image separation and relative velocity of a particle at ``(x_i, v_i)`` and ``j`` at time ``t``."""
     xj, yj, zj, vxj, vyj, vzj = flight(P, j, t, geo)
-    dx, dy, dz, ux = shear_image(xi - xj, yi - yj, zi - zj, t, geo)
-    return dx, dy, dz, vxi - vxj + ux, vyi - vyj, vzi - vzj
+    dx, dy, dz, uj = shear_image(xi - xj, yi - yj, zi - zj, t, geo)
+    return dx, dy, dz, vxi - vxj - uj, vyi - vyj, vzi - vzj
 
 
 @leaf

@@ -118,7 +118,7 @@ def well_event(i, j, kind, P, mass, omega, inertia, pairs, geo, fp, acc, cnt):
     velocities and the momentum are unchanged). The impulse enters the virial like a collision's,
     and the kinetic energy changes by exactly :math:`\pm\varepsilon` (0 for a bounce).
     """
-    nx, ny, nz, r, _ux = contact_normal(P, i, j, geo)  # (never sheared)
+    nx, ny, nz, r, _uj = contact_normal(P, i, j, geo)  # (never sheared)
     gn = (P[i, L.VX] - P[j, L.VX]) * nx + (P[i, L.VY] - P[j, L.VY]) * ny + (P[i, L.VZ] - P[j, L.VZ]) * nz
     mi, mj = mass[i], mass[j]
     mu = mi * mj / (mi + mj)
