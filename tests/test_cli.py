@@ -169,11 +169,18 @@ def test_compile_names_a_bad_feature():
     assert r.exit_code == 2 and "vibration needs walls" in r.output
     r = runner.invoke(app, ["compile", "grow+rough"])
     assert r.exit_code == 2 and "grow takes only walls" in r.output
+    r = runner.invoke(app, ["compile", "shear+bath"])
+    assert r.exit_code == 2 and "shear takes walls" in r.output
 
 
 def test_compile_warms_the_vibrating_wall():
     r = runner.invoke(app, ["compile", "walls+vibration"])
     assert r.exit_code == 0 and "walls+vibration:" in r.output, r.output
+
+
+def test_compile_warms_the_sheared_loop():
+    r = runner.invoke(app, ["compile", "shear"])
+    assert r.exit_code == 0 and "plain+shear:" in r.output, r.output
 
 
 def test_run_says_when_it_compiles_its_loop(tmp_path, monkeypatch):

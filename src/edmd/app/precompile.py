@@ -11,7 +11,8 @@ another name for it), ``emdstar`` (``emdstar+rough``: frictional eMD*),
 ``bath`` (the Andersen heat bath, :class:`edmd.Andersen`), ``noise`` (white-noise kicks,
 :class:`edmd.WhiteNoise`), ``vibration`` (a vibrating wall, :class:`edmd.VibratingWall`: the
 walls variant compiled for its geometry), ``well`` (square wells, :class:`edmd.SquareWell`), ``grow``
-(growing particles, :func:`edmd.compress`) and ``debug`` (the per-collision checks
+(growing particles, :func:`edmd.compress`), ``shear`` (Lees-Edwards shear, :class:`edmd.Shear`: a
+variant compiled for its geometry) and ``debug`` (the per-collision checks
 of ``[engine] debug``), e.g. ``walls+rough+soft``.
 """
 
@@ -24,7 +25,7 @@ from .._core import layout as L
 from .._core.jit import in_disk_cache
 from .._core.loop import GEO_ARG, loop_variant
 
-FEATURES = ("walls", "rough", "soft", "emdstar", "bath", "noise", "vibration", "well", "grow", "debug")
+FEATURES = ("walls", "rough", "soft", "emdstar", "bath", "noise", "vibration", "well", "grow", "shear", "debug")
 #: other names of features
 SYNONYMS = {"viscoelastic": "soft"}
 
@@ -63,13 +64,15 @@ def parse_features(spec: str) -> frozenset[str]:
         raise FeatureError("growing particles (compression) are smooth elastic hard spheres in a periodic box or between walls: grow takes only walls")
     if "vibration" in found and "walls" not in found:
         raise FeatureError("a vibrating wall is one of the walls: vibration needs walls")
+    if "shear" in found and found & {"emdstar", "bath", "noise", "vibration", "well", "grow"}:
+        raise FeatureError("shear takes walls (along z), rough, soft and debug only")
     return found
 
 
 def all_feature_sets() -> list[frozenset[str]]:
     """The feature sets ``edmd compile --all`` builds: every normal and tangential law with and without
     walls and eMD*, each with the drivers, a vibrating wall and square wells (with and without the
-    drivers), and growth (debug mode excluded).
+    drivers), shear, and growth (debug mode excluded).
 
     Example:
         >>> sets = all_feature_sets()
@@ -86,7 +89,8 @@ def all_feature_sets() -> list[frozenset[str]]:
     driven = [s | extra for s in sets for extra in ({"bath"}, {"noise"}, {"bath", "noise"}) if not ("emdstar" in s and "noise" in extra)]
     vibrated = [s | {"vibration"} for s in sets if "walls" in s]
     wells = [s | {"well"} for s in sets + driven if "emdstar" not in s]
-    return sets + driven + vibrated + wells + [frozenset({"grow"}), frozenset({"grow", "walls"})]
+    sheared = [s | {"shear"} for s in sets if "emdstar" not in s]
+    return sets + driven + vibrated + wells + sheared + [frozenset({"grow"}), frozenset({"grow", "walls"})]
 
 
 def _variant(features: frozenset[str]):
@@ -106,6 +110,7 @@ def _example(features: frozenset[str]):
     from ..physics.vibration import VibratingWall
     from ..physics.growth import Growth
     from ..physics.wells import SquareWell
+    from ..physics.shear import Shear
 
     hertz = Hertz(young=1e5, poisson=0.3, A=1e-3)
     normal = hertz if "soft" in features else 0.9
@@ -121,9 +126,11 @@ def _example(features: frozenset[str]):
         shaker = VibratingWall(amplitude=0.1, omega=1.0, phase=-1.5707963267948966) if "vibration" in features else None
         well = SquareWell(width=1.5, depth=0.5) if "well" in features else None
         growth = Growth(rate=0.01) if "grow" in features else None
+        shear = Shear(rate=0.1) if "shear" in features else None
         return edmd.Simulation(
-            state, collision=None if growth else rule, thermostat=bath, forcing=kicks, vibration=shaker, well=well, growth=growth, engine={"debug": "debug" in features}
-        )
+            state, collision=None if growth else rule, thermostat=bath, forcing=kicks, vibration=shaker, well=well, growth=growth, shear=shear,
+            engine={"debug": "debug" in features},
+        )  # fmt: skip
 
 
 def compile_features(features: frozenset[str]) -> tuple[str, float, bool]:
@@ -137,11 +144,12 @@ def compile_features(features: frozenset[str]) -> tuple[str, float, bool]:
         'plain'
     """
     loop = _variant(features)
-    geo = (0.0,) * (L.G_WALL_PHASE + 1 if "vibration" in features else L.G_ON + 1)  # (a vibrating wall's geometry is longer)
+    geo = (0.0,) * (L.G_WALL_PHASE + 1 if "vibration" in features else L.N_GEO_SHEAR if "shear" in features else L.G_ON + 1)  # (longer geometries)
     cached = in_disk_cache(loop.run_events, (GEO_ARG, geo))
     start = time.perf_counter()
     sim = _example(features)
     if sim.engine.loop is not loop:  # the toy system must have exactly the features asked for
         raise RuntimeError(f"internal error: {sim.engine.loop.name} built for {loop.name}")
     sim.run(max_events=200)
-    return loop.name + ("+vibration" if "vibration" in features else ""), time.perf_counter() - start, cached
+    geometry = "+vibration" if "vibration" in features else "+shear" if "shear" in features else ""
+    return loop.name + geometry, time.perf_counter() - start, cached
