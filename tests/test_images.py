@@ -149,5 +149,33 @@ def test_sheared_state_offset_is_used_for_overlaps_and_distances():
     with pytest.raises(StateError, match="overlap"):
         edmd.State(pos, np.zeros((2, 2)), 0.5, 1.0, box, shear_offset=-2.0)
     edmd.State(pos, np.zeros((2, 2)), 0.5, 1.0, box)  # 2 apart through the plain images: no overlap
+    # a box too short along y for three cells: its single row of the overlap check is also the row across
+    with pytest.raises(StateError, match="overlap"):
+        edmd.State([[0.0, 1.0], [4.0, -1.0]], np.zeros((2, 2)), 0.5, 1.0, [10.0, 2.5], shear_offset=-4.0)
     with pytest.raises(StateError, match="periodic x and y"):
         edmd.State(pos, np.zeros((2, 2)), 0.5, 1.0, box, periodic=[True, False], shear_offset=1.0)
+
+
+def test_pairs_across_the_sliding_face_meet_whichever_image_comes(dim):
+    # two particles across the face, receding from each other's nearest image: the images slide and
+    # the next one comes round (review of session 12: once predicted with the nearest image only,
+    # they passed through each other)
+    shear = edmd.Shear(0.1)
+    pos = [[0.0, 4.8, 0.0], [4.0, -4.8, 0.0]][:2] if dim == 3 else [[0.0, 4.8], [4.0, -4.8]]
+    s = edmd.State([p[:dim] for p in pos], np.zeros((2, dim)), 0.5, 1.0, [10.0] * dim)
+    sim = edmd.Simulation(s, shear=shear, engine={"neighbours": "cells", "debug": True})
+    worst = np.inf
+    for k in range(1, 121):
+        sim.run(until_time=0.1 * k)
+        worst = min(worst, sim.state.contact_ratio(0, 1))
+    assert sim.collisions >= 1 and worst > 1.0 - 1e-9
+
+
+def test_a_dilute_sheared_gas_never_overlaps(dim):
+    n, eta = (300, 0.01) if dim == 3 else (300, 0.02)
+    s = _sheared_state(dim, n, eta, seed=8, rate=0.05, poly=False)
+    sim = edmd.Simulation(s, shear=edmd.Shear(0.05), e_n=0.9)
+    for k in range(1, 301):
+        sim.run(until_time=2.0 * k)
+        assert sim.state.overlapping_pair() is None, f"t = {sim.time}"
+    assert sim.collisions > 2 * n

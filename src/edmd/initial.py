@@ -307,10 +307,10 @@ def replicate(state: State, counts: Sequence[int]) -> State:
     walled = np.flatnonzero((counts > 1) & ~state.periodic)
     if walled.size:
         raise StateError(f"replicate: axis {'xyz'[walled[0]]} is closed by walls; only periodic axes can be tiled")
-    if state.has_pending or state.captured_pairs is not None:
+    if state.has_pending or state.captured_pairs is not None or state.shear_offset != 0.0:
         raise StateError(
-            "replicate: the state has pending eMD* contacts or captured square-well pairs, whose partners would "
-            "not follow the copies; replicate a state without them (e.g. the start before the run)"
+            "replicate: the state has pending eMD* contacts, captured square-well pairs or sliding (sheared) images, "
+            "which the copies would not follow; replicate a state without them (e.g. the start before the run)"
         )
     copies = int(np.prod(counts))
     box = state.box * counts

@@ -195,7 +195,7 @@ def _sheared_block(grid, c, geo, out, axis, step):
     n = 0
     for oy in range(loy, hiy + 1):
         y2 = _shift(cy, oy, ny, True)
-        across = y2 != cy + oy
+        across = y2 != cy + oy or ny < 3  # (a single row is also the row across)
         if across and axis == 0:  # (the whole row across is adjacent already)
             continue
         x0, x1 = (0, nx - 1) if across else (lox, hix)

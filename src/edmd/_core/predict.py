@@ -7,10 +7,12 @@ All functions are plain ``@njit`` functions over scalars and the particle row ar
 import math
 
 import numpy as np
+from numba.extending import overload
+
 from .jit import leaf
 
-from .layout import G_GX, G_GY, G_GZ, G_ON, R, T, VX, VY, VZ, X, Y, Z
-from .images import box_shift, shear_image, wrap3, wrap_delta  # noqa: F401 (the core imports them from here)
+from .layout import G_GX, G_GY, G_GZ, G_LX, G_ON, R, T, VX, VY, VZ, X, Y, Z
+from .images import _sheared_image, box_shift, shear_image, sheared, sheared_type, wrap3, wrap_delta  # noqa: F401 (the core imports them from here)
 from .wallmotion import ride_flight
 
 INF = np.inf
@@ -44,6 +46,76 @@ def contact_time(dx, dy, dz, gx, gy, gz, sigma):
     t = t if disc > 0.0 else INF
     t = 0.0 if c <= 0.0 else t
     return t if b < 0.0 else INF
+
+
+@leaf
+def sliding_contact_time(dx, dy, dz, gx, gy, gz, sigma, lx):
+    r"""Earliest contact of a pair across a sliding Lees-Edwards face with any of the partner's x
+    images: the separation to image :math:`k` is :math:`(d_x - kL_x, d_y, d_z) + \mathbf g\tau` (physics.md §5.7).
+
+    The images slide past each other (:math:`g_x` holds the images' :math:`\dot\gamma L_y`), so the
+    nearest image now need not be the one met: the tubes of radius :math:`\sigma` around the images
+    are visited in the order the motion along x reaches them, while the :math:`(y, z)` separation is
+    within :math:`\sigma`; the first contact found is the earliest (the tubes are disjoint, :math:`2\sigma < L_x`).
+
+    Example:
+        >>> # receding from the nearest image at x = 0, meeting the next one, 10 ahead
+        >>> round(sliding_contact_time(0.5, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 10.0), 12)
+        8.5
+    """
+    a = gy * gy + gz * gz
+    b = dy * gy + dz * gz
+    c = dy * dy + dz * dz - sigma * sigma
+    t_out = INF
+    if a == 0.0:
+        if c >= 0.0:
+            return INF
+    else:
+        disc = b * b - a * c
+        if disc <= 0.0:
+            return INF
+        t_out = (math.sqrt(disc) - b) / a
+        if t_out <= 0.0:
+            return INF
+    if gx == 0.0:
+        return contact_time(dx, dy, dz, gx, gy, gz, sigma)
+    step = 1.0 if gx > 0.0 else -1.0
+    k = float(math.ceil((dx - sigma) / lx) if gx > 0.0 else math.floor((dx + sigma) / lx))
+    while (step * (k * lx - dx) - sigma) / abs(gx) < t_out:  # (the time the motion enters image k's tube)
+        tk = contact_time(dx - k * lx, dy, dz, gx, gy, gz, sigma)
+        if tk < INF:
+            return tk
+        k += step
+    return INF
+
+
+@leaf
+def _sheared_contact_time(dx, dy, dz, gx, gy, gz, sigma, t, geo):
+    dx, dy, dz, uj = _sheared_image(dx, dy, dz, t, geo)
+    if uj == 0.0:
+        return contact_time(dx, dy, dz, gx, gy, gz, sigma)
+    return sliding_contact_time(dx, dy, dz, gx - uj, gy, gz, sigma, geo[G_LX])
+
+
+def pair_contact_time(dx, dy, dz, gx, gy, gz, sigma, t, geo):
+    """Time until the contact of a pair at the raw separation ``r_i - r_j`` with relative velocity
+    ``g`` at local time ``t`` (through the minimum image; across a sliding Lees-Edwards face, through
+    whichever image it meets first: :func:`sliding_contact_time`)."""
+    if sheared(geo):
+        return _sheared_contact_time(dx, dy, dz, gx, gy, gz, sigma, t, geo)
+    return contact_time(*wrap3(dx, dy, dz, geo), gx, gy, gz, sigma)
+
+
+@overload(pair_contact_time, inline="always")
+def _pair_contact_time_hook(dx, dy, dz, gx, gy, gz, sigma, t, geo):
+    if sheared_type(geo):
+        return lambda dx, dy, dz, gx, gy, gz, sigma, t, geo: _sheared_contact_time(dx, dy, dz, gx, gy, gz, sigma, t, geo)
+
+    def plain(dx, dy, dz, gx, gy, gz, sigma, t, geo):
+        x, y, z = wrap3(dx, dy, dz, geo)
+        return contact_time(x, y, z, gx, gy, gz, sigma)
+
+    return plain
 
 
 @leaf

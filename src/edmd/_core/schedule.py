@@ -22,7 +22,7 @@ from .images import cross_y_face, sheared, sheared_type
 from .jit import hot, jit
 from .layout import NB_LIST
 from .nblist import SQRT3, shell_exit_time
-from .predict import INF, advance, box_shift, contact_time, flight, gap_time, relative_to, wrap3
+from .predict import INF, advance, box_shift, flight, gap_time, pair_contact_time, wrap3
 from .queue import queue_update
 from .wallmotion import vibrating_type, has_wall, is_moving, level_time, ride_axis, ride_end, wall_params
 from .walls import moving_wall_time, ride_pair_dt
@@ -41,8 +41,9 @@ def set_pair(ev, count, i, t, j):
 def _closer(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, best, bj):
     """The earlier of the current best ``(dt, partner)`` and a contact of ``i`` (at ``x_i`` with
     ``v_i``, radius ``ri``) with ``j`` (with a vibrating wall, :func:`.walls.ride_pair_dt`)."""
-    dx, dy, dz, gx, gy, gz = relative_to(xi, yi, zi, vxi, vyi, vzi, P, j, t, geo)
-    dt = ride_pair_dt(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, contact_time(dx, dy, dz, gx, gy, gz, ri + P[j, L.R]))
+    xj, yj, zj, vxj, vyj, vzj = flight(P, j, t, geo)
+    contact = pair_contact_time(xi - xj, yi - yj, zi - zj, vxi - vxj, vyi - vyj, vzi - vzj, ri + P[j, L.R], t, geo)
+    dt = ride_pair_dt(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, contact)
     if dt < best:
         return dt, j
     return best, bj

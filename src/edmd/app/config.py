@@ -448,6 +448,10 @@ class Config(_Section):
             raise ValueError(f"vibration.axis = {self.vibration.axis!r} must be one of walls.axes (the vibrating wall is one of its walls)")
         if self.shear is not None and {"x", "y"} & set(self.walls.axes):
             raise ValueError("[shear] needs periodic x (the flow) and y (the gradient): walls.axes may hold 'z' only")
+        if self.shear is not None and (self.thermostat, self.forcing, self.vibration, self.well) != (None,) * 4:
+            raise ValueError("[shear] cannot be combined with [thermostat], [forcing], [vibration] or [well] (yet)")
+        if self.shear is not None and any(self.system.gravity or []):
+            raise ValueError("[shear] cannot be combined with gravity (yet)")
         return self
 
     system: SystemConfig = SystemConfig()

@@ -316,6 +316,7 @@ def _take(state: State, keep: np.ndarray | None) -> State:
         inertia=state.inertia[keep],
         image=state.image[keep],
         periodic=state.periodic,
+        shear_offset=state.shear_offset,
         check_overlaps=False,
     )
 

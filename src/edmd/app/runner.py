@@ -507,7 +507,7 @@ def _execute(sim: Simulation, cfg: Config, out: Path, progress: bool | None, ext
 
 def summarize(sim: Simulation, thermo: Thermo | None) -> dict:
     """Final numbers of a run: counters, speed, last thermo row and machine info."""
-    st = sim.state
+    st = sim.peculiar_state(sim.state)  # (sheared: relative to the flow, as thermo.csv)
     summary = {
         "time": sim.time,
         "n": st.n,

@@ -5,7 +5,8 @@ dimensions, step, orientations (identity quaternions: spheres have no orientatio
 momenta in HOOMD's convention (``particles/angmom``, see :func:`angmom`). Under ``log/``: the
 continuous ``time``, the ``events`` and ``collisions`` counters, the exact double-precision box
 (``log/configuration/box``), the periodic flags, the Lees-Edwards image offset
-(``log/configuration/shear_offset``; also as HOOMD's tilt ``xy`` of the box), the radii and ``log/particles/angular_velocity``.
+(``log/configuration/shear_offset``; the box itself is written without tilt, since positions stay in the
+rectangular box), the radii and ``log/particles/angular_velocity``.
 
 ``configuration/step`` is the cumulative event count (``log/events``): it grows with time, at no
 fixed rate. A frame's time is ``log/time``; trajectories space frames evenly, ``start + k *
@@ -63,8 +64,7 @@ def state_to_frame(state: State, totals: Totals | None = None, pending: bool | N
     f.configuration.dimensions = d
     f.configuration.step = 0 if totals is None else totals.events
     box = np.zeros(6, np.float32)  # what GSD stores: the exact box is log/configuration/box
-    box[:d] = state.box
-    box[3] = state.shear_offset / state.box[1] if d > 1 else 0.0  # Lees-Edwards images: HOOMD's tilt xy
+    box[:d] = state.box  # (no tilt for sheared states: their positions stay in the rectangular box)
     f.configuration.box = box
     f.particles.N = n
     f.particles.position = state.points

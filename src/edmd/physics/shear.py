@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 
 import numpy as np
 
@@ -46,7 +47,7 @@ class Shear:
     rate: float
 
     def __post_init__(self):
-        if not (isinstance(self.rate, int | float) and not isinstance(self.rate, bool) and math.isfinite(self.rate)):
+        if not (isinstance(self.rate, numbers.Real) and not isinstance(self.rate, bool) and math.isfinite(self.rate)):
             raise ValueError(f"Shear rate must be a finite number, got {self.rate!r}")
         object.__setattr__(self, "rate", float(self.rate))
 

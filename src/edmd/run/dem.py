@@ -105,6 +105,8 @@ class DEMEngine:
     def __init__(self, state: State, contact: ContactModel, dt: float, skin: float, gravity=None, friction: Friction | None = None):
         if not np.all(state.periodic):
             raise StateError("the DEM needs a periodic box on every axis (walls are not supported)")
+        if state.shear_offset != 0.0:
+            raise StateError("the DEM has no Lees-Edwards images: the state's shear_offset must be 0")
         self.contact = contact
         self.model = contact.code
         self.ca, self.cb = contact.constants()

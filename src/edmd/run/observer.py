@@ -39,7 +39,8 @@ class Totals:
             :math:`\\int\\sum_i m_i\\mathbf v_i\\otimes\\mathbf v_i\\,dt + \\sum_{\\rm coll}\\tfrac12(\\mathbf r_{ij}\\otimes\\mathbf J + \\mathbf J\\otimes\\mathbf r_{ij})`
             (physics.md §5.3), or ``None`` where the engine does not keep it (the DEM, a vibrating wall).
         shear_work: the work of sliding Lees-Edwards boundaries on the peculiar motion,
-            :math:`-\\dot\\gamma V\\int P_{xy}\\,dt` (the viscous heating; 0 without :class:`edmd.Shear`).
+            :math:`-\\dot\\gamma V\\int P_{xy}\\,dt` (the viscous heating; 0 without :class:`edmd.Shear`;
+            with rough walls along z it also holds their tangential impulses' share).
         energy_flux_integral: the three components of
             :math:`\\int\\sum_i e_i\\mathbf v_i\\,dt + \\sum_{\\rm coll}\\tfrac12\\mathbf r_{ij}(\\Delta e_i - \\Delta e_j)`
             (physics.md §5.6), or ``None`` where the engine does not keep it (also gravity, square wells, white noise).
