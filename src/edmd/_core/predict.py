@@ -9,7 +9,7 @@ import math
 import numpy as np
 from numba.extending import overload
 
-from .jit import leaf
+from .jit import jit, leaf
 
 from .layout import G_GX, G_GY, G_GZ, G_LX, G_ON, R, T, VX, VY, VZ, X, Y, Z
 from .images import _sheared_image, box_shift, shear_image, sheared, sheared_type, wrap3, wrap_delta  # noqa: F401 (the core imports them from here)
@@ -48,8 +48,8 @@ def contact_time(dx, dy, dz, gx, gy, gz, sigma):
     return t if b < 0.0 else INF
 
 
-@leaf
-def sliding_contact_time(dx, dy, dz, gx, gy, gz, sigma, lx):
+@jit
+def sliding_contact_time(dx, dy, dz, gx, gy, gz, sigma, lx, horizon):
     r"""Earliest contact of a pair across a sliding Lees-Edwards face with any of the partner's x
     images: the separation to image :math:`k` is :math:`(d_x - kL_x, d_y, d_z) + \mathbf g\tau` (physics.md §5.7).
 
@@ -57,16 +57,19 @@ def sliding_contact_time(dx, dy, dz, gx, gy, gz, sigma, lx):
     nearest image now need not be the one met: the tubes of radius :math:`\sigma` around the images
     are visited in the order the motion along x reaches them, while the :math:`(y, z)` separation is
     within :math:`\sigma`; the first contact found is the earliest (the tubes are disjoint, :math:`2\sigma < L_x`).
+    Tubes entered after ``horizon`` (the earliest event known so far) are not visited. Called, not
+    inlined: only pairs across the face take it (inlined into every pair's prediction, it cost sheared
+    runs 10 % of their speed).
 
     Example:
         >>> # receding from the nearest image at x = 0, meeting the next one, 10 ahead
-        >>> round(sliding_contact_time(0.5, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 10.0), 12)
+        >>> round(sliding_contact_time(0.5, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 10.0, math.inf), 12)
         8.5
     """
     a = gy * gy + gz * gz
     b = dy * gy + dz * gz
     c = dy * dy + dz * dz - sigma * sigma
-    t_out = INF
+    t_out = horizon
     if a == 0.0:
         if c >= 0.0:
             return INF
@@ -74,7 +77,7 @@ def sliding_contact_time(dx, dy, dz, gx, gy, gz, sigma, lx):
         disc = b * b - a * c
         if disc <= 0.0:
             return INF
-        t_out = (math.sqrt(disc) - b) / a
+        t_out = min(t_out, (math.sqrt(disc) - b) / a)
         if t_out <= 0.0:
             return INF
     if gx == 0.0:
@@ -90,28 +93,28 @@ def sliding_contact_time(dx, dy, dz, gx, gy, gz, sigma, lx):
 
 
 @leaf
-def _sheared_contact_time(dx, dy, dz, gx, gy, gz, sigma, t, geo):
+def _sheared_contact_time(dx, dy, dz, gx, gy, gz, sigma, t, geo, horizon):
     dx, dy, dz, uj = _sheared_image(dx, dy, dz, t, geo)
     if uj == 0.0:
         return contact_time(dx, dy, dz, gx, gy, gz, sigma)
-    return sliding_contact_time(dx, dy, dz, gx - uj, gy, gz, sigma, geo[G_LX])
+    return sliding_contact_time(dx, dy, dz, gx - uj, gy, gz, sigma, geo[G_LX], horizon)
 
 
-def pair_contact_time(dx, dy, dz, gx, gy, gz, sigma, t, geo):
+def pair_contact_time(dx, dy, dz, gx, gy, gz, sigma, t, geo, horizon):
     """Time until the contact of a pair at the raw separation ``r_i - r_j`` with relative velocity
     ``g`` at local time ``t`` (through the minimum image; across a sliding Lees-Edwards face, through
-    whichever image it meets first: :func:`sliding_contact_time`)."""
+    whichever image it meets first before ``horizon``: :func:`sliding_contact_time`)."""
     if sheared(geo):
-        return _sheared_contact_time(dx, dy, dz, gx, gy, gz, sigma, t, geo)
+        return _sheared_contact_time(dx, dy, dz, gx, gy, gz, sigma, t, geo, horizon)
     return contact_time(*wrap3(dx, dy, dz, geo), gx, gy, gz, sigma)
 
 
 @overload(pair_contact_time, inline="always")
-def _pair_contact_time_hook(dx, dy, dz, gx, gy, gz, sigma, t, geo):
+def _pair_contact_time_hook(dx, dy, dz, gx, gy, gz, sigma, t, geo, horizon):
     if sheared_type(geo):
-        return lambda dx, dy, dz, gx, gy, gz, sigma, t, geo: _sheared_contact_time(dx, dy, dz, gx, gy, gz, sigma, t, geo)
+        return lambda dx, dy, dz, gx, gy, gz, sigma, t, geo, horizon: _sheared_contact_time(dx, dy, dz, gx, gy, gz, sigma, t, geo, horizon)
 
-    def plain(dx, dy, dz, gx, gy, gz, sigma, t, geo):
+    def plain(dx, dy, dz, gx, gy, gz, sigma, t, geo, horizon):
         x, y, z = wrap3(dx, dy, dz, geo)
         return contact_time(x, y, z, gx, gy, gz, sigma)
 

@@ -42,7 +42,7 @@ def _closer(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, best, bj):
     """The earlier of the current best ``(dt, partner)`` and a contact of ``i`` (at ``x_i`` with
     ``v_i``, radius ``ri``) with ``j`` (with a vibrating wall, :func:`.walls.ride_pair_dt`)."""
     xj, yj, zj, vxj, vyj, vzj = flight(P, j, t, geo)
-    contact = pair_contact_time(xi - xj, yi - yj, zi - zj, vxi - vxj, vyi - vyj, vzi - vzj, ri + P[j, L.R], t, geo)
+    contact = pair_contact_time(xi - xj, yi - yj, zi - zj, vxi - vxj, vyi - vyj, vzi - vzj, ri + P[j, L.R], t, geo, best)
     dt = ride_pair_dt(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, contact)
     if dt < best:
         return dt, j
