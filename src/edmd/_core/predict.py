@@ -58,8 +58,7 @@ def sliding_contact_time(dx, dy, dz, gx, gy, gz, sigma, lx, horizon):
     are visited in the order the motion along x reaches them, while the :math:`(y, z)` separation is
     within :math:`\sigma`; the first contact found is the earliest (the tubes are disjoint, :math:`2\sigma < L_x`).
     Tubes entered after ``horizon`` (the earliest event known so far) are not visited. Called, not
-    inlined: only pairs across the face take it (inlined into every pair's prediction, it cost sheared
-    runs 10 % of their speed).
+    inlined: only pairs across the face take it (inlining it measured the same speed).
 
     Example:
         >>> # receding from the nearest image at x = 0, meeting the next one, 10 ahead

@@ -349,22 +349,21 @@ def _usf_theory(cfg, state, flow) -> list[tuple[str, float]]:
     for smooth particles of constant restitution (monodisperse), Enskog's viscosity for elastic ones."""
     from ..analysis.shear import usf_grad, usf_temperature
     from ..analysis.transport import enskog_viscosity
+    from .plots import usf_restitution
 
-    c = cfg.collision
-    if not (np.all(state.radius == state.radius[0]) and np.all(state.mass == state.mass[0])) or c.tc is not None:
+    e_n = usf_restitution(cfg, state)
+    if e_n is None:
         return []
     sigma, m = 2.0 * float(state.radius[0]), float(state.mass[0])
-    if c.rule == "inelastic" and c.e_n is not None and c.e_n < 1.0:
-        grad = usf_grad(c.e_n, state.dim)
-        return [
-            ("Grad theory a*", grad["a"]),
-            ("Grad theory P*_xy", grad["xy"]),
-            ("Grad theory temperature", usf_temperature(cfg.shear.rate, state.packing_fraction, c.e_n, state.dim, sigma, m)),
-        ]
-    if c.rule == "elastic" or (c.rule == "inelastic" and c.e_n == 1.0):
+    if e_n == 1.0:
         enskog = enskog_viscosity(state.packing_fraction, state.dim, sigma, m, flow.temperature)
         return [("Enskog viscosity", enskog), ("viscosity / Enskog", flow.viscosity / enskog)]
-    return []
+    grad = usf_grad(e_n, state.dim)
+    return [
+        ("Grad theory a*", grad["a"]),
+        ("Grad theory P*_xy", grad["xy"]),
+        ("Grad theory temperature", usf_temperature(cfg.shear.rate, state.packing_fraction, e_n, state.dim, sigma, m)),
+    ]
 
 
 def _profile_plot(profile, rate: float):

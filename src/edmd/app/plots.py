@@ -532,13 +532,23 @@ def _cooling_law(run: _Run, table):
     return None
 
 
+def usf_restitution(cfg: Config, state: State) -> float | None:
+    """The restitution of a run that the kinetic theory of uniform shear flow describes (smooth
+    monodisperse particles of constant e_n, 1 if elastic, no TC; physics.md §5.8), or ``None``."""
+    c = cfg.collision
+    e_n = 1.0 if c.rule == "elastic" else c.e_n if c.rule == "inelastic" else None
+    mono = np.all(state.radius == state.radius[0]) and np.all(state.mass == state.mass[0])
+    return e_n if e_n is not None and c.tc is None and mono else None
+
+
 def _sheared_temperature(run: _Run, table):
     """T(t) of a sheared run (relative to the flow) with the steady temperature of Grad's theory of
     uniform shear flow for smooth monodisperse particles of constant e_n < 1 (physics.md §5.8)."""
     ax = plot_temperature(table)
-    c, first = run.config.collision, run.first
-    if c.rule == "inelastic" and c.e_n is not None and c.e_n < 1.0 and c.tc is None and first is not None and np.all(first.radius == first.radius[0]):
-        kT = usf_temperature(run.config.shear.rate, first.packing_fraction, c.e_n, first.dim, 2.0 * float(first.radius[0]), float(first.mass[0]))
+    first = run.first
+    e_n = None if first is None else usf_restitution(run.config, first)
+    if e_n is not None and e_n < 1.0:
+        kT = usf_temperature(run.config.shear.rate, first.packing_fraction, e_n, first.dim, 2.0 * float(first.radius[0]), float(first.mass[0]))
         ax.axhline(kT, color="k", ls="--", lw=1, label=f"steady shear flow, Grad: {kT:.4g}")
         ax.legend(fontsize="small")
     return ax
@@ -590,7 +600,7 @@ def _frame_figures(run: _Run, traj: Path, frames: int, color_by: str) -> dict:
     last = list(_frames(traj, start=max(frames - 5, 0), keep=sample_particles(n, MAX_PARTICLES)))
     shear = None if run.config is None or run.config.shear is None else run.config.shear.build()
     drawn = {}
-    flowing = last if shear is None else [dataclasses.replace(s, velocity=shear.peculiar_velocity(s), check_overlaps=False) for s in last]
+    flowing = last if shear is None else [shear.peculiar_state(s) for s in last]
     if n > 1 and all(s.temperature() > 0 for s in flowing):  # particles at rest have no distribution
         drawn["velocity_distribution"] = VelocityDistribution().compute(flowing).plot()  # (sheared: relative to the flow)
     if n > 1 and not run.has_gravity:  # a settling column has no uniform density to normalise g(r) by

@@ -61,6 +61,10 @@ class Shear:
         c[:, 0] -= self.profile(state.position[:, 1])
         return c
 
+    def peculiar_state(self, state: State) -> State:
+        """``state`` with its velocities relative to the flow (:meth:`peculiar_velocity`)."""
+        return dataclasses.replace(state, velocity=self.peculiar_velocity(state), check_overlaps=False)
+
     def with_profile(self, state: State) -> State:
         r"""``state`` with the linear profile added to its velocities (:math:`v_x + \dot\gamma y`):
         a start in the flow instead of a start at rest that the boundaries must first set moving."""

@@ -187,7 +187,7 @@ class Simulation:
         shear = self.shear
         if shear is None:
             return state
-        return dataclasses.replace(state, velocity=shear.peculiar_velocity(state), check_overlaps=False)
+        return shear.peculiar_state(state)
 
     @property
     def well_energy(self) -> float:
