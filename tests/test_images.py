@@ -72,11 +72,16 @@ def test_fold_face_keeps_the_peculiar_velocity():
         assert x2 == pytest.approx(1.0 - moved * image_offset(0.7, geo))
 
 
+NEIGHBOURS = {"cells": {"neighbours": "cells", "cell_size": 2.0}, "list": {"neighbours": "list", "skin": 1.5}}
+
+
+@pytest.mark.parametrize("mode", ["cells", "list"])
 @pytest.mark.parametrize("offset", [0.0, 2.2, -6.1])
-def test_predicted_pair_times_are_the_brute_force_minimum(dim, offset):
+def test_predicted_pair_times_are_the_brute_force_minimum(dim, offset, mode):
     n = 300
     s = _sheared_state(dim, n, 0.3, seed=5, rate=0.8, offset=offset)
-    sim = edmd.Simulation(s, shear=edmd.Shear(0.8), engine={"neighbours": "cells", "cell_size": 2.0})
+    sim = edmd.Simulation(s, shear=edmd.Shear(0.8), engine=NEIGHBOURS[mode])
+    assert sim.engine.mode == mode
     ev, tag = sim.engine.ev, sim.engine.tag
     times, _dr, _dv = _sheared_pair_times(s.position, s.velocity, s.radius, s.box, 0.8, s.shear_offset)
     predicted = np.empty(n)
@@ -86,9 +91,9 @@ def test_predicted_pair_times_are_the_brute_force_minimum(dim, offset):
     brute = times.min(axis=1)
     crossing = np.empty(n)
     crossing[tag] = sim.engine.ev.aux_t
-    # a contact before both partners' next cell crossings is between neighbouring cells (through
-    # the sliding face too), so it must be the particle's prediction; no prediction is early or
-    # wrong; later contacts are found at crossings
+    # a contact before both partners' next cell crossings (shell exits) is between neighbouring
+    # cells (listed partners), through the sliding face too, so it must be the particle's
+    # prediction; no prediction is early or wrong; later contacts are found at crossings (rebuilds)
     first = brute < np.minimum(crossing, crossing[times.argmin(axis=1)])
     assert first.sum() > n // 10
     assert np.allclose(predicted[first], brute[first], rtol=1e-10, atol=1e-12)
@@ -99,14 +104,16 @@ def test_predicted_pair_times_are_the_brute_force_minimum(dim, offset):
     assert across[np.flatnonzero(ok), partner[ok]].sum() >= 3  # predictions through the sliding face among them
 
 
+@pytest.mark.parametrize("mode", ["cells", "list"])
 @pytest.mark.parametrize("e_n", [1.0, 0.8])
-def test_sheared_run_matches_brute_force_beyond_a_whole_box_of_strain(dim, e_n):
+def test_sheared_run_matches_brute_force_beyond_a_whole_box_of_strain(dim, e_n, mode):
     # the images slide by more than L_x during the run: every collision (pairs, times) and the
     # final state (positions, lab velocities, offset) as the explicit-image reference
     n, t_end, rate = (90, 1.6, 1.0) if dim == 2 else (70, 1.2, 1.0)
     s = _sheared_state(dim, n, 0.25, seed=11, rate=rate, offset=1.0)
     assert s.shear_offset == pytest.approx(1.0) and rate * s.box[1] * t_end > s.box[0]
-    sim = edmd.Simulation(s, shear=edmd.Shear(rate), e_n=e_n, engine=EngineOptions(neighbours="cells", debug=True))
+    sim = edmd.Simulation(s, shear=edmd.Shear(rate), e_n=e_n, engine=EngineOptions(neighbours=mode, debug=True))
+    assert sim.engine.mode == mode
     sim.engine.enable_log()
     sim.run(until_time=t_end)
     log = sim.engine.take_log()
@@ -125,11 +132,13 @@ def test_sheared_run_matches_brute_force_beyond_a_whole_box_of_strain(dim, e_n):
     assert np.abs(final.velocity - vel).max() < 1e-9
 
 
-def test_images_keep_every_particle_in_the_box_and_the_peculiar_momentum_zero(dim):
+@pytest.mark.parametrize("mode", ["cells", "list"])
+def test_images_keep_every_particle_in_the_box_and_the_peculiar_momentum_zero(dim, mode):
     s = _sheared_state(dim, 200, 0.2, seed=2, rate=2.0, poly=False)
     c = edmd.Shear(2.0).peculiar_velocity(s)
     s = edmd.State(s.position, s.velocity - c.mean(axis=0), s.radius, s.mass, s.box)
-    sim = edmd.Simulation(s, shear=edmd.Shear(2.0), e_n=0.9)
+    sim = edmd.Simulation(s, shear=edmd.Shear(2.0), e_n=0.9, engine={"neighbours": mode})
+    assert sim.engine.mode == mode
     for k in range(1, 21):
         sim.run(until_time=0.5 * k)
         st = sim.state
@@ -156,14 +165,15 @@ def test_sheared_state_offset_is_used_for_overlaps_and_distances():
         edmd.State(pos, np.zeros((2, 2)), 0.5, 1.0, box, periodic=[True, False], shear_offset=1.0)
 
 
-def test_pairs_across_the_sliding_face_meet_whichever_image_comes(dim):
+@pytest.mark.parametrize("mode", ["cells", "list"])
+def test_pairs_across_the_sliding_face_meet_whichever_image_comes(dim, mode):
     # two particles across the face, receding from each other's nearest image: the images slide and
     # the next one comes round (review of session 12: once predicted with the nearest image only,
     # they passed through each other)
     shear = edmd.Shear(0.1)
     pos = [[0.0, 4.8, 0.0], [4.0, -4.8, 0.0]][:2] if dim == 3 else [[0.0, 4.8], [4.0, -4.8]]
     s = edmd.State([p[:dim] for p in pos], np.zeros((2, dim)), 0.5, 1.0, [10.0] * dim)
-    sim = edmd.Simulation(s, shear=shear, engine={"neighbours": "cells", "debug": True})
+    sim = edmd.Simulation(s, shear=shear, engine={"neighbours": mode, "debug": True})
     worst = np.inf
     for k in range(1, 121):
         sim.run(until_time=0.1 * k)

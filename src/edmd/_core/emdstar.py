@@ -232,7 +232,7 @@ def rebin(p, t, P, image, grid, lists, geo, mode, fp, cbuf):
     Cells: re-bin by position. Lists: rebuild the list if ``p`` left the cube inscribed in its
     shell. Returns ``False`` if a list ran out of capacity.
     """
-    wrap_into_box(P, image, p, geo)
+    wrap_into_box(P, image, p, t, geo)
     if mode != NB_LIST:
         c = cell_of_point(P[p, L.X], P[p, L.Y], P[p, L.Z], geo, grid)
         if c != grid.cell[p]:

@@ -180,3 +180,67 @@ def _fold_face_hook(x, y, vx, t, geo):
     if sheared_type(geo):
         return lambda x, y, vx, t, geo: _fold_face(x, y, vx, t, geo)
     return lambda x, y, vx, t, geo: (x, y, vx, 0)
+
+
+@leaf
+def _sheared_listing_distance2(dx, dy, dz, geo):
+    if dy > geo[G_HY] or dy < -geo[G_HY]:  # across the sliding face: every x image passes by
+        dy = wrap_delta(dy, geo[G_LY], geo[G_HY])
+        dz = wrap_delta(dz, geo[G_LZ], geo[G_HZ])
+        return dy * dy + dz * dz
+    dx = wrap_delta(dx, geo[G_LX], geo[G_HX])
+    dz = wrap_delta(dz, geo[G_LZ], geo[G_HZ])
+    return dx * dx + dy * dy + dz * dz
+
+
+def listing_distance2(dx, dy, dz, geo):
+    r"""The squared distance that decides whether two neighbour-list centres ``d = c_i - c_j``
+    (both in the box) are listed: the minimum-image distance, but across a sliding Lees-Edwards
+    face the distance in :math:`(y, z)` alone, since every x image of the partner slides past
+    (physics.md §5.7). The list of a centre near the face then holds the whole row across it,
+    valid at every offset, so no rebuild is needed when the images move.
+
+    Example:
+        >>> geo = (10.0, 10.0, 10.0, 5.0, 5.0, 5.0, 0.0, 0.0, 0.0, 0.0, 0.1, 2.0)
+        >>> listing_distance2(4.0, 9.5, 0.0, geo), listing_distance2(4.0, 0.5, 0.0, geo)
+        (0.25, 16.25)
+    """
+    if sheared(geo):
+        return _sheared_listing_distance2(dx, dy, dz, geo)
+    x, y, z = wrap3(dx, dy, dz, geo)
+    return x * x + y * y + z * z
+
+
+@overload(listing_distance2, inline="always")
+def _listing_distance2_hook(dx, dy, dz, geo):
+    if sheared_type(geo):
+        return lambda dx, dy, dz, geo: _sheared_listing_distance2(dx, dy, dz, geo)
+
+    def plain(dx, dy, dz, geo):
+        x, y, z = wrap3(dx, dy, dz, geo)
+        return x * x + y * y + z * z
+
+    return plain
+
+
+@leaf
+def _fold_into_box(P, image, i, t, geo):
+    shift = box_shift(P[i, Y], geo[G_LY], geo[G_HY])
+    if shift != 0:
+        cross_y_face(P, image, i, shift, t, geo)
+
+
+def fold_into_box(P, image, i, t, geo):
+    """Bring particle ``i`` (streamed to local time ``t``) back through a sliding y face, as its
+    image (:func:`cross_y_face`), if it has left the box that way: exact at any time after the
+    crossing, since the image's x and x velocity follow the offset (nothing in an unsheared box)."""
+    if sheared(geo):
+        _fold_into_box(P, image, i, t, geo)
+
+
+@overload(fold_into_box, inline="always")
+def _fold_into_box_hook(P, image, i, t, geo):
+    if sheared_type(geo):
+        return lambda P, image, i, t, geo: _fold_into_box(P, image, i, t, geo)
+    return lambda P, image, i, t, geo: None
+

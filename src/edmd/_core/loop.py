@@ -274,7 +274,7 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well, grow
                     count[i] += 1
                 elif kind == L.AUX_SHELL:  # the particle left the shell of its neighbour list
                     advance(P, i, t, geo)
-                    wrap_into_box(P, image, i, geo)
+                    wrap_into_box(P, image, i, t, geo)
                     cnt[L.C_REBUILD] += 1
                     if not rebuild_list(i, P, grid, lists, geo, skin, lists_reach, cbuf):
                         return L.ST_LIST_FULL

@@ -17,6 +17,7 @@ import math
 from .jit import jit, leaf
 
 from .cells import cell_insert, cell_of_point, cell_remove, count_work, walk_around, walk_next
+from .images import listing_distance2
 from .layout import FP_LIST_MARGIN, G_GX, G_GY, G_GZ, G_ON, R, X, Y, Z
 from .predict import INF, flight, gap_time, sphere_exit_time, wrap3
 from .wells import well_reach
@@ -50,9 +51,8 @@ def _link_neighbours(i, P, grid, lists, geo, skin, reach, cbuf, only_higher):
     while j >= 0:
         if j != i and (j > i or not only_higher):
             tested += 1
-            dx, dy, dz = wrap3(cx - centre[j, 0], cy - centre[j, 1], cz - centre[j, 2], geo)
             lim = ri + reach * P[j, R]
-            if dx * dx + dy * dy + dz * dz < lim * lim:
+            if listing_distance2(cx - centre[j, 0], cy - centre[j, 1], cz - centre[j, 2], geo) < lim * lim:
                 ni = nbl_n[i]
                 nj = nbl_n[j]
                 if ni >= cap or nj >= cap:

@@ -18,7 +18,7 @@ from numba.extending import overload
 
 from . import layout as L
 from .cells import cell_insert, cell_of_point, cell_remove, count_work, crossing_time, walk_cells, walk_next
-from .images import cross_y_face, sheared, sheared_type
+from .images import cross_y_face, fold_into_box, sheared, sheared_type
 from .jit import hot, jit
 from .layout import NB_LIST
 from .nblist import SQRT3, shell_exit_time
@@ -326,7 +326,10 @@ def _cross_sheared_face_hook(i, t, shift, P, image, count, ev, grid, geo, cbuf):
 
 
 @hot
-def wrap_into_box(P, image, i, geo):
+def wrap_into_box(P, image, i, t, geo):
+    """Bring ``i`` (streamed to local time ``t``) back into the box on its periodic axes (through
+    a sliding y face as its image, :func:`.images.fold_into_box`)."""
+    fold_into_box(P, image, i, t, geo)
     for k in range(3):
         x = P[i, L.X + k]
         shift = box_shift(x, geo[k], geo[3 + k])

@@ -194,8 +194,6 @@ class Engine:
         mode = opt.neighbours
         if mode == "auto":
             mode = "list" if (state.packing_fraction >= opt.auto_threshold or self._pair_state) and self.shear is None else "cells"
-        if mode == "list" and self.shear is not None:
-            raise StateError("Lees-Edwards shear needs neighbours='cells' (or 'auto'): the sliding images are followed by the cell grid")
         if mode == "cells" and self._pair_state:
             what = "square wells" if self.well is not None else "growing particles"
             raise StateError(f"{what} need neighbours='list' (or 'auto'): their pair events are predicted over neighbour lists")
@@ -211,7 +209,7 @@ class Engine:
                         if short.size
                         else "a grid of >= 4 cells on every periodic axis, which the memory cap on the cell count does not allow here"
                     )
-                    raise StateError(f"neighbours='cells' needs {detail}; use neighbours='list' or 'auto'" if self.shear is None else f"Lees-Edwards shear needs {detail}")
+                    raise StateError(f"neighbours='cells' needs {detail}; use neighbours='list' or 'auto'")
                 mode = "list"
         skin = opt.skin * 2.0 * float(state.radius.mean())
         if mode == "list" and periodic_len.size:
@@ -232,6 +230,8 @@ class Engine:
             n_density = state.n / state.volume
             reach = sigma_max + skin
             ball = (4.0 / 3.0 * math.pi * reach**3) if self.dim == 3 else (math.pi * reach**2)
+            if self.shear is not None:  # a centre by the sliding face lists the whole row across it (listing_distance2)
+                ball += float(self.box[0]) * ((math.pi * reach**2) if self.dim == 3 else 2.0 * reach)
             self.list_capacity = max(self.list_capacity, int(1.6 * n_density * ball) + 8)
 
     def _grid_ranges(self, state: State):
