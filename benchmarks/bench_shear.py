@@ -4,8 +4,8 @@ A 3D elastic fluid of N spheres at packing fraction eta, from one random start w
 Maxwell-Boltzmann velocities (T = 1; sheared runs start in the linear profile). Each round runs
 every case once, alternating, over ``--measure`` collisions per particle after ``--warm``, timed by
 the process's CPU clock; the best and the median of the rounds are reported, with the ratio of the
-sheared rates to the best unsheared neighbour structure. Sheared runs use cells (the engine's only
-neighbour structure under shear). Pin it to one core: ``taskset -c 1 python benchmarks/bench_shear.py``.
+sheared rates to the best unsheared neighbour structure; sheared runs use both neighbour
+structures. Pin it to one core: ``taskset -c 1 python benchmarks/bench_shear.py``.
 
 Usage::
 
@@ -42,7 +42,8 @@ def main():
     state = edmd.maxwell_boltzmann(edmd.random_packing(args.n, args.eta, seed=1), 1.0, seed=2)
     cases = {"unsheared, lists": {"engine": {"neighbours": "list"}}, "unsheared, cells": {"engine": {"neighbours": "cells"}}}
     for rate in args.rates:
-        cases[f"sheared, rate {rate:g}"] = {"shear": edmd.Shear(rate)}
+        for mode, neighbours in (("lists", "list"), ("cells", "cells")):
+            cases[f"sheared, rate {rate:g}, {mode}"] = {"shear": edmd.Shear(rate), "engine": {"neighbours": neighbours}}
     runs = {name: [] for name in cases}
     for k in range(args.rounds):
         for name, physics in cases.items():

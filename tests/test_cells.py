@@ -1,11 +1,13 @@
 """The cell grid: neighbourhoods and crossing layers against brute force."""
 
 import itertools
+import math
 
 import numpy as np
 import pytest
 
-from edmd._core.cells import cell_block, crossing_time, grid_shape, new_grid
+from edmd._core.cells import cell_block, cells_buffer_size, crossing_time, grid_shape, new_grid
+from edmd._core.images import image_offset
 from edmd._core.layout import make_geo
 
 
@@ -20,7 +22,7 @@ def test_cell_block_is_the_full_neighbourhood(nc, periodic):
     grid = new_grid(1, box, np.array(nc))
     out = np.empty(27, np.int32)
     for c in range(int(np.prod(nc))):
-        got = sorted(out[: cell_block(grid, c, make_geo(box, half), out, -1, 0)].tolist())
+        got = sorted(out[: cell_block(grid, c, make_geo(box, half), out, -1, 0, 0.0, math.inf)].tolist())
         cc = _coords(c, nc)
         want = set()
         for off in itertools.product((-1, 0, 1), repeat=3):
@@ -46,9 +48,9 @@ def test_layer_after_crossing_is_the_new_neighbourhood_part():
     grid = new_grid(1, box, nc)
     out = np.empty(27, np.int32)
     old, new = 62, 62 + 25  # +x neighbour
-    full_old = set(out[: cell_block(grid, old, make_geo(box, half), out, -1, 0)].tolist())
-    full_new = set(out[: cell_block(grid, new, make_geo(box, half), out, -1, 0)].tolist())
-    layer = set(out[: cell_block(grid, new, make_geo(box, half), out, 0, 1)].tolist())
+    full_old = set(out[: cell_block(grid, old, make_geo(box, half), out, -1, 0, 0.0, math.inf)].tolist())
+    full_new = set(out[: cell_block(grid, new, make_geo(box, half), out, -1, 0, 0.0, math.inf)].tolist())
+    layer = set(out[: cell_block(grid, new, make_geo(box, half), out, 0, 1, 0.0, math.inf)].tolist())
     assert layer == full_new - full_old
     assert len(layer) == 9
 
@@ -66,3 +68,33 @@ def test_crossing_time(v, g, expected_face):
     assert face == expected_face
     assert x == pytest.approx(0.5 if face else -0.5, abs=1e-12)
     assert crossing_time(0.1, 0.0, 0.0, 2, 5, 5.0, 1.0, True)[0] == np.inf
+
+
+@pytest.mark.parametrize("rate", [0.3, -1.7])
+def test_sliding_window_holds_every_cell_whose_images_pass_by(rate):
+    # a cell on the sliding face, scanned at t with a horizon: every cell across whose image comes
+    # within one cell of it at some offset in between, checked on a fine sweep of the offset, and
+    # at most two columns more (the window's ends); an infinite horizon takes the whole row
+    nc = np.array([12, 6, 4])
+    box = np.array([12.0, 6.0, 4.0])
+    geo = make_geo(box, 0.5 * box, shear=(rate, 2.3))
+    grid = new_grid(1, box, nc)
+    out = np.empty(cells_buffer_size(nc, True), np.int32)
+    rng = np.random.default_rng(4)
+    for _ in range(200):
+        cx, cy, cz = rng.integers(12), rng.choice([0, 5]), rng.integers(4)
+        c = (cx * 6 + cy) * 4 + cz
+        t, horizon = rng.uniform(0.0, 10.0), rng.exponential(0.5)
+        got = {_coords(k, nc) for k in out[: cell_block(grid, c, geo, out, -1, 0, t, horizon)]}
+        across = {k for k in got if k[1] == 5 - cy}
+        need = set()
+        for tau in np.linspace(t, t + horizon, 400):
+            d = image_offset(tau, geo) * (1 if cy == 5 else -1)  # the row across seen shifted by +-delta
+            for x in range(12):
+                if min(abs((x + d - cx + 6) % 12 - 6 + o) for o in (-1.0, 0.0, 1.0)) < 1.0 - 1e-6:  # within one cell
+                    need |= {(x, 5 - cy, (cz + oz) % 4) for oz in (-1, 0, 1)}
+        assert need <= across
+        assert len({k[0] for k in across}) <= min(12, len({k[0] for k in need}) + 2)
+        assert len(got - across) == 18  # both rows on the own side of the face
+    full = out[: cell_block(grid, 0, geo, out, -1, 0, 0.0, math.inf)]  # (row 0: the row across is 5)
+    assert len({_coords(k, nc) for k in full if _coords(k, nc)[1] == 5}) == 12 * 3

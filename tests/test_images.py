@@ -98,7 +98,7 @@ def test_predicted_pair_times_are_the_brute_force_minimum(dim, offset, mode):
     assert first.sum() > n // 10
     assert np.allclose(predicted[first], brute[first], rtol=1e-10, atol=1e-12)
     assert np.all(predicted >= brute * (1 - 1e-10) - 1e-12)
-    ok = np.isfinite(predicted)
+    ok = predicted < s.box[0] / (0.8 * s.box[1])  # (the reference's images: within a box of sliding)
     assert np.allclose(times[np.flatnonzero(ok), partner[ok]], predicted[ok], rtol=1e-10, atol=1e-12)
     across = np.abs(s.position[:, None, 1] - s.position[None, :, 1]) > 0.5 * s.box[1]
     assert across[np.flatnonzero(ok), partner[ok]].sum() >= 3  # predictions through the sliding face among them

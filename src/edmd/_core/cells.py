@@ -22,7 +22,8 @@ from numba.extending import overload
 from .jit import jit, leaf
 from .bundles import Grid
 
-from .images import sheared, sheared_type
+from .images import image_offset, sheared, sheared_type
+from .layout import G_LX, G_LY, G_SHEAR_RATE
 from .predict import INF, gap_time
 
 
@@ -137,15 +138,16 @@ def _shift(c, o, nc, periodic):
 
 
 @leaf
-def cell_block(grid, c, geo, out, axis, step):
+def cell_block(grid, c, geo, out, axis, step, t, horizon):
     """Write cells around ``c`` into ``out`` (each once) and return their number.
 
     ``axis = -1``: the full neighbourhood of ``c``, itself included. Otherwise the layer beyond
     ``c`` in direction ``step`` (+1/-1) along ``axis``: after a crossing into ``c`` these are the
     only cells whose particles were not candidates before (physics.md §1.4: the newly adjacent
-    layer of :math:`3^{d-1}` cells).
+    layer of :math:`3^{d-1}` cells). In a sheared box, the cells across a sliding face whose
+    images pass by from local time ``t`` for ``horizon`` (:func:`sheared_block`).
     """
-    n = sheared_block(grid, c, geo, out, axis, step)
+    n = sheared_block(grid, c, geo, out, axis, step, t, horizon)
     if n >= 0:
         return n
     nx, ny, nz, cx, cy, cz, lox, hix, loy, hiy, loz, hiz = _block_frame(grid, c, axis, step)
@@ -189,37 +191,68 @@ def _z_column(out, n, x2, y2, cz, loz, hiz, ny, nz, pz):
 
 
 @leaf
-def _sheared_block(grid, c, geo, out, axis, step):
+def _sliding_window(nx, cx, above, t, horizon, geo):
+    r"""First column and number of columns of the row across the sliding face whose images pass
+    within one cell of column ``cx`` while the offset moves from :math:`\delta(t)` to
+    :math:`\delta(t + \mathrm{horizon})` (``above``: the row is seen through the image above,
+    shifted by :math:`+\delta`; else below, by :math:`-\delta`). The whole row when that is shorter."""
+    if horizon == INF:
+        return 0, nx
+    w = geo[G_LX] / nx
+    d0 = image_offset(t, geo) / w
+    d1 = d0 + geo[G_SHEAR_RATE] * geo[G_LY] * horizon / w
+    da, db = min(d0, d1), max(d0, d1)
+    # partners within one cell of column cx: their images in columns [cx - 1, cx + 2)
+    lo, hi = (cx - 1.0 - db, cx + 2.0 - da) if above else (cx - 1.0 + da, cx + 2.0 + db)
+    x0 = int(math.floor(lo - WINDOW_MARGIN))
+    count = int(math.floor(hi + WINDOW_MARGIN)) - x0 + 1
+    if count >= nx:
+        return 0, nx
+    return x0 % nx, count
+
+
+#: round-off margin of :func:`_sliding_window`, in cells
+WINDOW_MARGIN = 1e-6
+
+
+@leaf
+def _sheared_block(grid, c, geo, out, axis, step, t, horizon):
     nx, ny, nz, cx, cy, cz, lox, hix, loy, hiy, loz, hiz = _block_frame(grid, c, axis, step)
     pz = geo[5] < INF
     n = 0
-    for oy in range(loy, hiy + 1):
+    ylo, yhi = _offsets(1, ny, -1, 0)
+    for oy in range(ylo, yhi + 1):
         y2 = _shift(cy, oy, ny, True)
-        across = y2 != cy + oy or ny < 3  # (a single row is also the row across)
-        if across and axis == 0:  # (the whole row across is adjacent already)
-            continue
-        x0, x1 = (0, nx - 1) if across else (lox, hix)
-        for ox in range(x0, x1 + 1):
-            n = _z_column(out, n, ox if across else _shift(cx, ox, nx, True), y2, cz, loz, hiz, ny, nz, pz)
+        if y2 != cy + oy or ny < 3:  # the row across the face (a single row is also the row across)
+            x0, count = _sliding_window(nx, cx, oy > 0, t, horizon, geo)
+            zlo, zhi = _offsets(2, nz, -1, 0)
+            for ox in range(count):
+                n = _z_column(out, n, (x0 + ox) % nx, y2, cz, zlo, zhi, ny, nz, pz)
+        elif loy <= oy and oy <= hiy:
+            for ox in range(lox, hix + 1):
+                n = _z_column(out, n, _shift(cx, ox, nx, True), y2, cz, loz, hiz, ny, nz, pz)
     return n
 
 
-def sheared_block(grid, c, geo, out, axis, step):
+def sheared_block(grid, c, geo, out, axis, step, t, horizon):
     """:func:`cell_block` in a sheared box (Lees-Edwards, :mod:`.images`), or -1 in another.
 
-    The row of cells across a sheared y face slides with the images, so every cell of it (at the
-    neighbouring z layers) is a neighbour of a cell on the face, at all times: the adjacency does
-    not change as the offset moves, and no event is needed when it does. A crossing along x on
-    the face reveals nothing new across it. ``out`` holds :func:`cells_buffer_size` cells.
+    The row of cells across a sheared y face slides with the images. A cell on the face has as
+    neighbours across it the cells whose images pass within one cell of it from local time ``t``
+    until ``t + horizon`` (:func:`_sliding_window`; ``horizon = inf``: the whole row, at all
+    times), at every crossing as at a full scan, all three z layers: the event loop's horizon is
+    the particle's next crossing, so the window scanned last expires exactly when the next one is
+    scanned and no event is needed when the images move (physics.md §5.7). ``out`` holds
+    :func:`cells_buffer_size` cells.
     """
-    return _sheared_block(grid, c, geo, out, axis, step) if sheared(geo) else -1
+    return _sheared_block(grid, c, geo, out, axis, step, t, horizon) if sheared(geo) else -1
 
 
 @overload(sheared_block, inline="always")
-def _sheared_block_hook(grid, c, geo, out, axis, step):
+def _sheared_block_hook(grid, c, geo, out, axis, step, t, horizon):
     if sheared_type(geo):
-        return lambda grid, c, geo, out, axis, step: _sheared_block(grid, c, geo, out, axis, step)
-    return lambda grid, c, geo, out, axis, step: -1
+        return lambda grid, c, geo, out, axis, step, t, horizon: _sheared_block(grid, c, geo, out, axis, step, t, horizon)
+    return lambda grid, c, geo, out, axis, step, t, horizon: -1
 
 
 def cells_buffer_size(nc, shear: bool) -> int:
@@ -253,7 +286,7 @@ def _walk_from(head, cbuf, nc, s):
 
 
 @leaf
-def walk_cells(grid, c, geo, cbuf, axis, step):
+def walk_cells(grid, c, geo, cbuf, axis, step, t, horizon):
     """Start a walk over the particles of the cells :func:`cell_block` gives for ``c``.
 
     The one way the core visits cell neighbours: returns a cursor ``(nc, s, j)`` whose ``j`` is
@@ -266,13 +299,13 @@ def walk_cells(grid, c, geo, cbuf, axis, step):
 
     ``cbuf`` (27 int32) holds the cells during the walk.
     """
-    return _walk_from(grid.head, cbuf, cell_block(grid, c, geo, cbuf, axis, step), 0)
+    return _walk_from(grid.head, cbuf, cell_block(grid, c, geo, cbuf, axis, step, t, horizon), 0)
 
 
 @leaf
 def walk_around(grid, c, geo, cbuf):
     """:func:`walk_cells` over the full neighbourhood of ``c`` (itself included)."""
-    return walk_cells(grid, c, geo, cbuf, np.int64(-1), np.int64(0))
+    return walk_cells(grid, c, geo, cbuf, np.int64(-1), np.int64(0), 0.0, INF)
 
 
 @leaf

@@ -56,7 +56,7 @@ def scan_cells(i, t, P, count, ev, grid, geo, cbuf, axis, step):
     ri = P[i, L.R]
     best = ev.pair_t[i] - t
     bj = -1
-    nc, s, j = walk_cells(grid, grid.cell[i], geo, cbuf, axis, step)
+    nc, s, j = walk_cells(grid, grid.cell[i], geo, cbuf, axis, step, t, sliding_horizon(i, t, P, grid, geo))
     tested = 0
     while j >= 0:
         if j != i:
@@ -103,8 +103,8 @@ def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, 
 
 
 @hot
-def _crossing_event(i, t, P, ev, grid, geo):
-    """Earliest cell-face crossing of ``i`` (physics.md §1.4)."""
+def next_crossing(i, t, P, grid, geo):
+    """Time until the earliest cell-face crossing of ``i`` (physics.md §1.4) and its aux kind."""
     gi, gf = grid.shape, grid.size
     c = grid.cell[i]
     ncy, ncz = gi[1], gi[2]
@@ -117,8 +117,43 @@ def _crossing_event(i, t, P, ev, grid, geo):
         if tk < best:
             best = tk
             kind = L.AUX_CELL + 2 * k + face
+    return best, kind
+
+
+@hot
+def _crossing_event(i, t, P, ev, grid, geo):
+    """Earliest cell-face crossing of ``i`` as its aux event."""
+    best, kind = next_crossing(i, t, P, grid, geo)
     ev.aux_t[i] = t + best
     ev.aux_k[i] = kind
+
+
+@jit
+def _sliding_horizon(i, t, P, grid, geo):
+    ny = grid.shape[1]
+    cy = (grid.cell[i] // grid.shape[2]) % ny
+    if cy != 0 and cy != ny - 1:
+        return INF
+    return next_crossing(i, t, P, grid, geo)[0]
+
+
+def sliding_horizon(i, t, P, grid, geo):
+    """How long the cells that a particle on a sliding face scans across it must cover
+    (:func:`.cells.sheared_block`): until its next cell crossing, where it scans them again (a
+    change of flight re-predicts it in full). Infinite off the face and in an unsheared box.
+
+    Why it is enough: a pair across the face that meets at :math:`t_c` was scanned by whichever
+    partner last crossed a cell or changed its flight before :math:`t_c`, with a horizon beyond
+    :math:`t_c`, and the other partner stayed in its cell meanwhile.
+    """
+    return _sliding_horizon(i, t, P, grid, geo) if sheared(geo) else INF
+
+
+@overload(sliding_horizon, inline="always")
+def _sliding_horizon_hook(i, t, P, grid, geo):
+    if sheared_type(geo):
+        return lambda i, t, P, grid, geo: _sliding_horizon(i, t, P, grid, geo)
+    return lambda i, t, P, grid, geo: INF
 
 
 @hot
