@@ -715,7 +715,7 @@ plots = true              # PNG figures at the end of the run (also: `edmd plot 
 # width = 1.5             #   the edge at width * (R_i + R_j): pairs inside have energy -depth
 # depth = 1.0
 
-# [shear]                 # uniform shear flow, Lees-Edwards boundaries (edmd integrator, cells): flow along x,
+# [shear]                 # uniform shear flow, Lees-Edwards boundaries (edmd integrator; auto takes cells): flow along x,
 # rate = 0.1              #   gradient along y; temperatures and the kinetic stress are peculiar
 # profile = true          #   start in the flow (v_x += rate * y)
 
