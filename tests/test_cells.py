@@ -96,5 +96,6 @@ def test_sliding_window_holds_every_cell_whose_images_pass_by(rate):
         assert need <= across
         assert len({k[0] for k in across}) <= min(12, len({k[0] for k in need}) + 2)
         assert len(got - across) == 18  # both rows on the own side of the face
-    full = out[: cell_block(grid, 0, geo, out, -1, 0, 0.0, math.inf)]  # (row 0: the row across is 5)
-    assert len({_coords(k, nc) for k in full if _coords(k, nc)[1] == 5}) == 12 * 3
+    for horizon in (math.inf, 1e19, 1e300):  # (a finite sweep past 2^63 cells: the whole row, review of session 13)
+        full = out[: cell_block(grid, 0, geo, out, -1, 0, 0.0, horizon)]  # (row 0: the row across is 5)
+        assert len({_coords(k, nc) for k in full if _coords(k, nc)[1] == 5}) == 12 * 3

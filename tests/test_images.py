@@ -189,3 +189,16 @@ def test_a_dilute_sheared_gas_never_overlaps(dim):
         sim.run(until_time=2.0 * k)
         assert sim.state.overlapping_pair() is None, f"t = {sim.time}"
     assert sim.collisions > 2 * n
+
+
+@pytest.mark.parametrize("rate", [1.0, -1.0])
+def test_a_particle_nearly_at_rest_on_the_face_still_sees_across_it(rate):
+    # review of session 13: a head-on collision leaves A on the face with v ~ 1e-20, a horizon of
+    # ~1e20 whose window overflowed to no cells at all, and B across the face (at rest, never
+    # rescanned) was passed through; the window is now the whole row
+    s = edmd.State([[0.0, 7.2 * np.sign(rate)], [1e-20, 6.1 * np.sign(rate)], [-4.0, -7.1 * np.sign(rate)]], [[0.0, -np.sign(rate)], [0.0, 0.0], [0.0, 0.0]], 0.5, 1.0, [15.0, 15.0])
+    sim = edmd.Simulation(s, shear=edmd.Shear(rate), engine={"neighbours": "cells", "cell_size": 3.0, "debug": True})
+    sim.engine.enable_log()
+    sim.run(until_time=0.5)
+    pairs = [tuple(sorted(p)) for p in sim.engine.take_log()[:, 1:3].astype(int).tolist()]
+    assert pairs[:2] == [(0, 1), (0, 2)]

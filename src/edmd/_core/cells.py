@@ -202,6 +202,8 @@ def _sliding_window(nx, cx, above, t, horizon, geo):
     d0 = image_offset(t, geo) / w
     d1 = d0 + geo[G_SHEAR_RATE] * geo[G_LY] * horizon / w
     da, db = min(d0, d1), max(d0, d1)
+    if not db - da < nx:  # (also a horizon so long that the sweep overflows: a flight nearly at rest)
+        return 0, nx
     # partners within one cell of column cx: their images in columns [cx - 1, cx + 2)
     lo, hi = (cx - 1.0 - db, cx + 2.0 - da) if above else (cx - 1.0 + da, cx + 2.0 + db)
     x0 = int(math.floor(lo - WINDOW_MARGIN))
