@@ -362,8 +362,21 @@ class State:
 
     @property
     def freud_box(self) -> list[float]:
-        """Box in freud's ``Box.from_box`` form: ``[Lx, Ly]`` (2D) or ``[Lx, Ly, Lz]`` (3D)."""
-        return self.box.tolist()
+        """Box in freud's ``Box.from_box`` form: ``[Lx, Ly]`` (2D) or ``[Lx, Ly, Lz]`` (3D).
+
+        With Lees-Edwards images (``shear_offset`` :math:`\\delta \\ne 0`) the triclinic box
+        ``[Lx, Ly, Lz, xy, 0, 0]`` (``Lz = 0`` in 2D) whose tilt :math:`xy = \\delta / L_y` places the
+        images above at :math:`x + \\delta`, so freud's neighbour queries see the sliding images
+        (freud wraps the points into it).
+
+        Example:
+            >>> State([[0.0, 0.0]], [[0.0, 0.0]], 0.5, 1.0, [10.0, 8.0], shear_offset=2.0).freud_box
+            [10.0, 8.0, 0.0, 0.25, 0.0, 0.0]
+        """
+        if self.shear_offset == 0.0:
+            return self.box.tolist()
+        lz = float(self.box[2]) if self.dim == 3 else 0.0
+        return [float(self.box[0]), float(self.box[1]), lz, self.shear_offset / float(self.box[1]), 0.0, 0.0]
 
     @property
     def volume(self) -> float:
