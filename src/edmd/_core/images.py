@@ -243,4 +243,3 @@ def _fold_into_box_hook(P, image, i, t, geo):
     if sheared_type(geo):
         return lambda P, image, i, t, geo: _fold_into_box(P, image, i, t, geo)
     return lambda P, image, i, t, geo: None
-
