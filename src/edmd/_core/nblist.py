@@ -5,6 +5,9 @@ and may move at most :math:`\\delta = s/2` away from it (``s`` = skin); leaving 
 event. Invariant: ``j`` is in ``i``'s list (and ``i`` in ``j``'s) whenever
 :math:`|\\mathbf c_i - \\mathbf c_j| < \\lambda\\sigma_{ij} + s`, so two particles that can touch while
 both are inside their shells are always listed (:math:`\\lambda = 1`, or a square well's edge).
+Across a sliding Lees-Edwards face the distance is that in (y, z) alone, every x image passing
+by (:func:`.images.listing_distance2`); a particle is folded back through the face as its image
+only at its rebuilds (:func:`.schedule.wrap_into_box`).
 A rebuild moves only ``i``'s centre: ``i`` is
 removed from its old neighbours' lists and added to its new ones, found through a cell grid over
 the centres with cells of edge :math:`\\ge 2\\lambda R_{\\max} + s`.
