@@ -181,10 +181,12 @@ def test_pairs_across_the_sliding_face_meet_whichever_image_comes(dim, mode):
     assert sim.collisions >= 1 and worst > 1.0 - 1e-9
 
 
-def test_a_dilute_sheared_gas_never_overlaps(dim):
+@pytest.mark.parametrize("mode", ["cells", "list"])
+def test_a_dilute_sheared_gas_never_overlaps(dim, mode):
     n, eta = (300, 0.01) if dim == 3 else (300, 0.02)
     s = _sheared_state(dim, n, eta, seed=8, rate=0.05, poly=False)
-    sim = edmd.Simulation(s, shear=edmd.Shear(0.05), e_n=0.9)
+    sim = edmd.Simulation(s, shear=edmd.Shear(0.05), e_n=0.9, engine={"neighbours": mode})
+    assert sim.engine.mode == mode
     for k in range(1, 301):
         sim.run(until_time=2.0 * k)
         assert sim.state.overlapping_pair() is None, f"t = {sim.time}"

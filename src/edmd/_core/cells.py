@@ -195,9 +195,12 @@ def _sliding_window(nx, cx, above, t, horizon, geo):
     r"""First column and number of columns of the row across the sliding face whose images pass
     within one cell of column ``cx`` while the offset moves from :math:`\delta(t)` to
     :math:`\delta(t + \mathrm{horizon})` (``above``: the row is seen through the image above,
-    shifted by :math:`+\delta`; else below, by :math:`-\delta`). The whole row when that is shorter."""
+    shifted by :math:`+\delta`; else below, by :math:`-\delta`). The whole row when that is shorter;
+    none for a negative horizon (:data:`NOT_ACROSS`)."""
     if horizon == INF:
         return 0, nx
+    if horizon < 0.0:
+        return 0, 0
     w = geo[G_LX] / nx
     d0 = image_offset(t, geo) / w
     d1 = d0 + geo[G_SHEAR_RATE] * geo[G_LY] * horizon / w
@@ -215,6 +218,8 @@ def _sliding_window(nx, cx, above, t, horizon, geo):
 
 #: round-off margin of :func:`_sliding_window`, in cells
 WINDOW_MARGIN = 1e-6
+#: the horizon of a walk that leaves out the cells across a sliding face (the neighbour lists')
+NOT_ACROSS = -1.0
 
 
 @leaf
@@ -225,8 +230,8 @@ def _sheared_block(grid, c, geo, out, axis, step, t, horizon):
     ylo, yhi = _offsets(1, ny, -1, 0)
     for oy in range(ylo, yhi + 1):
         y2 = _shift(cy, oy, ny, True)
-        if y2 != cy + oy or ny < 3:  # the row across the face (a single row is also the row across)
-            x0, count = _sliding_window(nx, cx, oy > 0, t, horizon, geo)
+        if y2 != cy + oy or ny < 3:  # the row across the face (a single row is also the row across: whole)
+            x0, count = _sliding_window(nx, cx, oy > 0, t, INF if ny < 3 else horizon, geo)
             zlo, zhi = _offsets(2, nz, -1, 0)
             for ox in range(count):
                 n = _z_column(out, n, (x0 + ox) % nx, y2, cz, zlo, zhi, ny, nz, pz)
@@ -242,10 +247,10 @@ def sheared_block(grid, c, geo, out, axis, step, t, horizon):
     The row of cells across a sheared y face slides with the images. A cell on the face has as
     neighbours across it the cells whose images pass within one cell of it from local time ``t``
     until ``t + horizon`` (:func:`_sliding_window`; ``horizon = inf``: the whole row, at all
-    times), at every crossing as at a full scan, all three z layers: the event loop's horizon is
-    the particle's next crossing, so the window scanned last expires exactly when the next one is
-    scanned and no event is needed when the images move (physics.md §5.7). ``out`` holds
-    :func:`cells_buffer_size` cells.
+    times; negative: none, but a single row is always whole), at every crossing as at a full
+    scan, all three z layers: the event loop's horizon is the particle's next crossing, so the
+    window scanned last expires exactly when the next one is scanned and no event is needed when
+    the images move (physics.md §5.7). ``out`` holds :func:`cells_buffer_size` cells.
     """
     return _sheared_block(grid, c, geo, out, axis, step, t, horizon) if sheared(geo) else -1
 

@@ -184,10 +184,8 @@ def _fold_face_hook(x, y, vx, t, geo):
 
 @leaf
 def _sheared_listing_distance2(dx, dy, dz, geo):
-    if dy > geo[G_HY] or dy < -geo[G_HY]:  # across the sliding face: every x image passes by
-        dy = wrap_delta(dy, geo[G_LY], geo[G_HY])
-        dz = wrap_delta(dz, geo[G_LZ], geo[G_HZ])
-        return dy * dy + dz * dz
+    if dy > geo[G_HY] or dy < -geo[G_HY]:  # across the sliding face: never listed
+        return INF
     dx = wrap_delta(dx, geo[G_LX], geo[G_HX])
     dz = wrap_delta(dz, geo[G_LZ], geo[G_HZ])
     return dx * dx + dy * dy + dz * dz
@@ -195,15 +193,14 @@ def _sheared_listing_distance2(dx, dy, dz, geo):
 
 def listing_distance2(dx, dy, dz, geo):
     r"""The squared distance that decides whether two neighbour-list centres ``d = c_i - c_j``
-    (both in the box) are listed: the minimum-image distance, but across a sliding Lees-Edwards
-    face the distance in :math:`(y, z)` alone, since every x image of the partner slides past
-    (physics.md §5.7). The list of a centre near the face then holds the whole row across it,
-    valid at every offset, so no rebuild is needed when the images move.
+    (both in the box) are listed: the minimum-image distance, but infinite across a sliding
+    Lees-Edwards face, whose pairs are never listed: their images slide past, so predictions find
+    them through the centre grid instead (:func:`.schedule.sliding_partners`, physics.md §5.7).
 
     Example:
         >>> geo = (10.0, 10.0, 10.0, 5.0, 5.0, 5.0, 0.0, 0.0, 0.0, 0.0, 0.1, 2.0)
         >>> listing_distance2(4.0, 9.5, 0.0, geo), listing_distance2(4.0, 0.5, 0.0, geo)
-        (0.25, 16.25)
+        (inf, 16.25)
     """
     if sheared(geo):
         return _sheared_listing_distance2(dx, dy, dz, geo)

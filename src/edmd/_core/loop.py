@@ -48,7 +48,7 @@ def _bad_contact(p, k, t, P, geo, tol, acc, cnt, exact, scale):
 
 
 @jit
-def _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf, contact_only, scale, grown):
+def _debug_check(i, j, t, P, grid, geo, fp, acc, cnt, cbuf, contact_only, scale, grown):
     """Debug mode: the colliding pair touches (|r_ij| = ``scale`` sigma: 1, a square well's edge,
     or grown radii) and neither partner overlaps a candidate (cores ``grown`` times the stored radii).
 
@@ -61,17 +61,12 @@ def _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf, contact
         return False
     if contact_only:
         return True
-    for p in (np.int64(i), np.int64(j)):
-        if mode == NB_LIST:
-            for s in range(lists.size[p]):
-                if _bad_contact(p, lists.members[p, s], t, P, geo, tol, acc, cnt, False, grown):
-                    return False
-        else:
-            nc, s, k = walk_around(grid, grid.cell[p], geo, cbuf)
-            while k >= 0:
-                if k != p and _bad_contact(p, k, t, P, geo, tol, acc, cnt, False, grown):
-                    return False
-                nc, s, k = walk_next(grid, cbuf, nc, s, k)
+    for p in (np.int64(i), np.int64(j)):  # (lists: the grid of centres, a superset of the listed partners)
+        nc, s, k = walk_around(grid, grid.cell[p], geo, cbuf)
+        while k >= 0:
+            if k != p and _bad_contact(p, k, t, P, geo, tol, acc, cnt, False, grown):
+                return False
+            nc, s, k = walk_next(grid, cbuf, nc, s, k)
     return True
 
 
@@ -307,7 +302,7 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well, grow
                     if well:
                         edge = pairs.kind[i] != L.PAIR_CORE
                     grown = 1.0 + rate * t if grow else 1.0  # growing radii: sigma(t) / sigma at the load
-                    if debug and not _debug_check(i, j, t, P, grid, lists, geo, mode, fp, acc, cnt, cbuf, emd_on, reach if edge else grown, grown):
+                    if debug and not _debug_check(i, j, t, P, grid, geo, fp, acc, cnt, cbuf, emd_on, reach if edge else grown, grown):
                         return L.ST_OVERLAP
                     advance(P, i, t, geo)
                     advance(P, j, t, geo)
@@ -349,11 +344,11 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well, grow
                     # its relocation scans (emdstar.relocation_scan)
                     predicted = emd_on and outcome == CONTACT_SOFT and mode != NB_LIST
                     if not predicted:
-                        predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate)
+                        predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate, skin)
                     predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t, grow, rate)
                     requeue(q, ev, i)
                     if not predicted:
-                        predict_pair(j, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate)
+                        predict_pair(j, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate, skin)
                     predict_aux(j, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t, grow, rate)
                     requeue(q, ev, j)
                     continue
@@ -362,7 +357,7 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well, grow
             for s in range(nrep):
                 p = i if s == 0 else j
                 if pair:
-                    predict_pair(p, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate)
+                    predict_pair(p, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate, skin)
                 if aux:
                     predict_aux(p, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t, grow, rate)
                 requeue(q, ev, p)
@@ -395,7 +390,7 @@ def _make_setup(walls, emd_on, bath_on, well, grow):
         else:
             bin_all(P, geo, grid)
         for i in range(n):
-            predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate)
+            predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate, skin)
             predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, emd.pending_until, bath_on, drive.bath_t, grow, rate)
         return True
 

@@ -5,8 +5,9 @@ and may move at most :math:`\\delta = s/2` away from it (``s`` = skin); leaving 
 event. Invariant: ``j`` is in ``i``'s list (and ``i`` in ``j``'s) whenever
 :math:`|\\mathbf c_i - \\mathbf c_j| < \\lambda\\sigma_{ij} + s`, so two particles that can touch while
 both are inside their shells are always listed (:math:`\\lambda = 1`, or a square well's edge).
-Across a sliding Lees-Edwards face the distance is that in (y, z) alone, every x image passing
-by (:func:`.images.listing_distance2`); a particle is folded back through the face as its image
+Pairs across a sliding Lees-Edwards face are not listed (their images slide by,
+:func:`.images.listing_distance2`): predictions find them through the centre grid
+(:func:`.schedule.sliding_partners`); a particle is folded back through the face as its image
 only at its rebuilds (:func:`.schedule.wrap_into_box`).
 A rebuild moves only ``i``'s centre: ``i`` is
 removed from its old neighbours' lists and added to its new ones, found through a cell grid over
@@ -17,9 +18,11 @@ the centres with cells of edge :math:`\\ge 2\\lambda R_{\\max} + s`.
 
 import math
 
+import numpy as np
+
 from .jit import jit, leaf
 
-from .cells import cell_insert, cell_of_point, cell_remove, count_work, walk_around, walk_next
+from .cells import NOT_ACROSS, cell_insert, cell_of_point, cell_remove, count_work, walk_cells, walk_next
 from .images import listing_distance2
 from .layout import FP_LIST_MARGIN, G_GX, G_GY, G_GZ, G_ON, R, X, Y, Z
 from .predict import INF, flight, gap_time, sphere_exit_time, wrap3
@@ -49,7 +52,7 @@ def _link_neighbours(i, P, grid, lists, geo, skin, reach, cbuf, only_higher):
     cap = nbl.shape[1]
     cx, cy, cz = centre[i, 0], centre[i, 1], centre[i, 2]
     ri = reach * P[i, R] + skin  # (reach 1.0: exactly the sums of hard spheres)
-    nc, s, j = walk_around(grid, grid.cell[i], geo, cbuf)
+    nc, s, j = walk_cells(grid, grid.cell[i], geo, cbuf, np.int64(-1), np.int64(0), 0.0, NOT_ACROSS)
     tested = 0
     while j >= 0:
         if j != i and (j > i or not only_higher):

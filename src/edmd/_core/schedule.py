@@ -69,8 +69,9 @@ def scan_cells(i, t, P, count, ev, grid, geo, cbuf, axis, step):
 
 
 @hot
-def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate):
-    """Full re-prediction of the earliest contact of ``i`` (neighbour list or 3^d cells).
+def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate, skin):
+    """Full re-prediction of the earliest contact of ``i`` (neighbour list or 3^d cells; with
+    lists in a sheared box, also the partners across the sliding face, :func:`sliding_partners`).
 
     With a square ``well`` (list mode only; ``reach`` = :math:`\\lambda`), the earliest event of any
     kind with any listed partner, and its kind in ``pairs.kind`` (:func:`.wells.closer_well`). With
@@ -91,6 +92,7 @@ def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, 
                 best, bj, bk = closer_well(xi, yi, zi, vxi, vyi, vzi, ri, P, pairs, i, nbl[i, s], t, geo, reach, best, bj, bk)
             else:
                 best, bj = _closer(i, xi, yi, zi, vxi, vyi, vzi, ri, P, nbl[i, s], t, geo, best, bj)
+        best, bj = sliding_partners(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj)
         if bj >= 0:
             set_pair(ev, count, i, t + best, bj)
             if well:
@@ -154,6 +156,51 @@ def _sliding_horizon_hook(i, t, P, grid, geo):
     if sheared_type(geo):
         return lambda i, t, P, grid, geo: _sliding_horizon(i, t, P, grid, geo)
     return lambda i, t, P, grid, geo: INF
+
+
+@jit
+def _sliding_partners(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj):
+    ny = grid.shape[1]
+    cy = (grid.cell[i] // grid.shape[2]) % ny
+    if ny < 3:  # a single row is also the row across: all of it (listed partners again, harmlessly)
+        nc, s, j = walk_cells(grid, grid.cell[i], geo, cbuf, np.int64(-1), np.int64(0), t, INF)
+    elif cy == 0 or cy == ny - 1:  # the row across only
+        horizon = shell_exit_time(P, i, t, lists, geo, skin) - t
+        nc, s, j = walk_cells(grid, grid.cell[i], geo, cbuf, np.int64(1), np.int64(1 if cy == ny - 1 else -1), t, horizon)
+    else:
+        return best, bj
+    tested = 0
+    while j >= 0:
+        if j != i:
+            best, bj = _closer(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, best, bj)
+            tested += 1
+        nc, s, j = walk_next(grid, cbuf, nc, s, j)
+    count_work(grid, nc, tested)
+    return best, bj
+
+
+def sliding_partners(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj):
+    """Improve the earliest contact ``(best, bj)`` of ``i`` (at ``x_i`` with ``v_i``) in list mode
+    with the partners across a sliding Lees-Edwards face, which the lists leave out
+    (:func:`.images.listing_distance2`): the particles whose list centres lie in the cells of the
+    centre grid across the face whose images pass by until ``i`` leaves its shell
+    (:func:`.cells.sheared_block`). As for cells (:func:`sliding_horizon`): a pair across the
+    face that meets at :math:`t_c` was predicted by whichever partner last rebuilt its list or
+    changed its flight before :math:`t_c`, and the other stayed within its shell meanwhile. Nothing
+    in an unsheared box, or when the centre is off the face.
+    """
+    if sheared(geo):
+        return _sliding_partners(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj)
+    return best, bj
+
+
+@overload(sliding_partners, inline="always")
+def _sliding_partners_hook(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj):
+    if sheared_type(geo):
+        return lambda i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj: _sliding_partners(
+            i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj
+        )
+    return lambda i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj: (best, bj)
 
 
 @hot
@@ -289,7 +336,7 @@ def repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb, 
 
     Compiled once and called (eMD* exception b, white-noise kicks); the loop inlines the same steps.
     """
-    predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, ip[L.IP_WELL] != 0, well_reach(fp), False, 0.0)
+    predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, ip[L.IP_WELL] != 0, well_reach(fp), False, 0.0, fp[L.FP_SKIN])
     predict_aux(i, t, P, ev, grid, lists, geo, mode, ip[L.IP_WALLS] != 0, ip[L.IP_WALLS], ip[L.IP_EMD] != 0, fp[L.FP_SKIN], ptb, ip[L.IP_BATH] != 0, bath_t, False, 0.0)
     requeue(q, ev, i)
 

@@ -230,8 +230,6 @@ class Engine:
             n_density = state.n / state.volume
             reach = sigma_max + skin
             ball = (4.0 / 3.0 * math.pi * reach**3) if self.dim == 3 else (math.pi * reach**2)
-            if self.shear is not None:  # a centre by the sliding face lists the whole row across it (listing_distance2)
-                ball += float(self.box[0]) * ((math.pi * reach**2) if self.dim == 3 else 2.0 * reach)
             self.list_capacity = max(self.list_capacity, int(1.6 * n_density * ball) + 8)
 
     def _grid_ranges(self, state: State):
