@@ -187,7 +187,9 @@ def sliding_partners(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, c
     (:func:`.cells.sheared_block`). As for cells (:func:`sliding_horizon`): a pair across the
     face that meets at :math:`t_c` was predicted by whichever partner last rebuilt its list or
     changed its flight before :math:`t_c`, and the other stayed within its shell meanwhile. Nothing
-    in an unsheared box, or when the centre is off the face.
+    in an unsheared box, or when the centre is off the face. Hard-sphere contacts only (shear
+    refuses square wells and growth, whose event kinds this does not set), with the free-flight
+    shell of :func:`.nblist.shell_exit_time` (shear refuses gravity and the vibrating wall).
     """
     if sheared(geo):
         return _sliding_partners(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj)
