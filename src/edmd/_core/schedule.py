@@ -49,14 +49,10 @@ def _closer(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, best, bj):
     return best, bj
 
 
-@jit
-def scan_cells(i, t, P, count, ev, grid, geo, cbuf, axis, step):
-    """Improve the pair event of ``i`` with the particles of a block of cells (see ``cell_block``)."""
-    xi, yi, zi, vxi, vyi, vzi = flight(P, i, t, geo)
-    ri = P[i, L.R]
-    best = ev.pair_t[i] - t
-    bj = -1
-    nc, s, j = walk_cells(grid, grid.cell[i], geo, cbuf, axis, step, t, sliding_horizon(i, t, P, grid, geo))
+@hot
+def _closest_in_walk(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, geo, cbuf, nc, s, j, best, bj):
+    """The earlier of ``(best, bj)`` and the contacts of ``i`` with the particles of a walk over
+    cells (the cursor ``nc, s, j`` of :func:`.cells.walk_cells`), whose work it counts."""
     tested = 0
     while j >= 0:
         if j != i:
@@ -64,6 +60,15 @@ def scan_cells(i, t, P, count, ev, grid, geo, cbuf, axis, step):
             tested += 1
         nc, s, j = walk_next(grid, cbuf, nc, s, j)
     count_work(grid, nc, tested)
+    return best, bj
+
+
+@jit
+def scan_cells(i, t, P, count, ev, grid, geo, cbuf, axis, step):
+    """Improve the pair event of ``i`` with the particles of a block of cells (see ``cell_block``)."""
+    xi, yi, zi, vxi, vyi, vzi = flight(P, i, t, geo)
+    nc, s, j = walk_cells(grid, grid.cell[i], geo, cbuf, axis, step, t, sliding_horizon(i, t, P, grid, geo))
+    best, bj = _closest_in_walk(i, xi, yi, zi, vxi, vyi, vzi, P[i, L.R], P, t, grid, geo, cbuf, nc, s, j, ev.pair_t[i] - t, -1)
     if bj >= 0:
         set_pair(ev, count, i, t + best, bj)
 
@@ -169,14 +174,7 @@ def _sliding_partners(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, 
         nc, s, j = walk_cells(grid, grid.cell[i], geo, cbuf, np.int64(1), np.int64(1 if cy == ny - 1 else -1), t, horizon)
     else:
         return best, bj
-    tested = 0
-    while j >= 0:
-        if j != i:
-            best, bj = _closer(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, best, bj)
-            tested += 1
-        nc, s, j = walk_next(grid, cbuf, nc, s, j)
-    count_work(grid, nc, tested)
-    return best, bj
+    return _closest_in_walk(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, geo, cbuf, nc, s, j, best, bj)
 
 
 def sliding_partners(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj):
