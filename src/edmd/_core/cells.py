@@ -262,6 +262,17 @@ def _sheared_block_hook(grid, c, geo, out, axis, step, t, horizon):
     return lambda grid, c, geo, out, axis, step, t, horizon: -1
 
 
+@leaf
+def face_side(grid, c):
+    """Which sliding y face cell ``c`` lies on: +1 the upper, -1 the lower, 0 neither (a grid of
+    fewer than 3 rows: 0)."""
+    ny = grid.shape[1]
+    cy = (c // grid.shape[2]) % ny
+    if ny < 3:
+        return 0
+    return 1 if cy == ny - 1 else -1 if cy == 0 else 0
+
+
 def cells_buffer_size(nc, shear: bool) -> int:
     """Cells a walk may visit at once (:func:`cell_block`): 27, or with shear the two rows of 3 x 3
     beside a face and the whole row across it.

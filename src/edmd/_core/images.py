@@ -183,12 +183,16 @@ def _fold_face_hook(x, y, vx, t, geo):
 
 
 @leaf
+def _distance2(dx, dy, dz, geo):
+    x, y, z = wrap3(dx, dy, dz, geo)
+    return x * x + y * y + z * z
+
+
+@leaf
 def _sheared_listing_distance2(dx, dy, dz, geo):
     if dy > geo[G_HY] or dy < -geo[G_HY]:  # across the sliding face: never listed
         return INF
-    dx = wrap_delta(dx, geo[G_LX], geo[G_HX])
-    dz = wrap_delta(dz, geo[G_LZ], geo[G_HZ])
-    return dx * dx + dy * dy + dz * dz
+    return _distance2(dx, dy, dz, geo)
 
 
 def listing_distance2(dx, dy, dz, geo):
@@ -202,22 +206,14 @@ def listing_distance2(dx, dy, dz, geo):
         >>> listing_distance2(4.0, 9.5, 0.0, geo), listing_distance2(4.0, 0.5, 0.0, geo)
         (inf, 16.25)
     """
-    if sheared(geo):
-        return _sheared_listing_distance2(dx, dy, dz, geo)
-    x, y, z = wrap3(dx, dy, dz, geo)
-    return x * x + y * y + z * z
+    return _sheared_listing_distance2(dx, dy, dz, geo) if sheared(geo) else _distance2(dx, dy, dz, geo)
 
 
 @overload(listing_distance2, inline="always")
 def _listing_distance2_hook(dx, dy, dz, geo):
     if sheared_type(geo):
         return lambda dx, dy, dz, geo: _sheared_listing_distance2(dx, dy, dz, geo)
-
-    def plain(dx, dy, dz, geo):
-        x, y, z = wrap3(dx, dy, dz, geo)
-        return x * x + y * y + z * z
-
-    return plain
+    return lambda dx, dy, dz, geo: _distance2(dx, dy, dz, geo)
 
 
 @leaf

@@ -17,7 +17,7 @@ import numpy as np
 from numba.extending import overload
 
 from . import layout as L
-from .cells import cell_insert, cell_of_point, cell_remove, count_work, crossing_time, walk_cells, walk_next
+from .cells import cell_insert, cell_of_point, cell_remove, count_work, crossing_time, face_side, walk_cells, walk_next
 from .images import cross_y_face, fold_into_box, sheared, sheared_type
 from .jit import hot, jit
 from .layout import NB_LIST
@@ -137,9 +137,7 @@ def _crossing_event(i, t, P, ev, grid, geo):
 
 @jit
 def _sliding_horizon(i, t, P, grid, geo):
-    ny = grid.shape[1]
-    cy = (grid.cell[i] // grid.shape[2]) % ny
-    if cy != 0 and cy != ny - 1:
+    if face_side(grid, grid.cell[i]) == 0:
         return INF
     return next_crossing(i, t, P, grid, geo)[0]
 
@@ -165,13 +163,12 @@ def _sliding_horizon_hook(i, t, P, grid, geo):
 
 @jit
 def _sliding_partners(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj):
-    ny = grid.shape[1]
-    cy = (grid.cell[i] // grid.shape[2]) % ny
-    if ny < 3:  # a single row is also the row across: all of it (listed partners again, harmlessly)
+    side = face_side(grid, grid.cell[i])
+    if grid.shape[1] < 3:  # a single row is also the row across: all of it (listed partners again, harmlessly)
         nc, s, j = walk_cells(grid, grid.cell[i], geo, cbuf, np.int64(-1), np.int64(0), t, INF)
-    elif cy == 0 or cy == ny - 1:  # the row across only
+    elif side != 0:  # the row across only
         horizon = shell_exit_time(P, i, t, lists, geo, skin) - t
-        nc, s, j = walk_cells(grid, grid.cell[i], geo, cbuf, np.int64(1), np.int64(1 if cy == ny - 1 else -1), t, horizon)
+        nc, s, j = walk_cells(grid, grid.cell[i], geo, cbuf, np.int64(1), np.int64(side), t, horizon)
     else:
         return best, bj
     return _closest_in_walk(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, geo, cbuf, nc, s, j, best, bj)
