@@ -204,3 +204,18 @@ def test_cold_arrays_are_carried_when_needed(dim, case):
         assert out.rotational_energy() > 0
     if case == "tc":
         assert np.isfinite(out.last_collision).sum() > 100
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_auto_takes_cells_up_to_the_measured_crossover_and_lists_from_it(dim):
+    """'auto' follows AUTO_THRESHOLD (where lists overtook cells in benchmarks/README.md,
+    "Neighbour structure"); an explicit auto_threshold overrides it."""
+    from edmd.run.engine import AUTO_THRESHOLD
+
+    edge = AUTO_THRESHOLD[dim]
+    assert edge == {2: 0.6, 3: 0.35}[dim]
+    for eta, mode in ((edge - 0.02, "cells"), (edge + 0.02, "list")):
+        state = edmd.random_packing(400, eta, dim=dim, seed=1)
+        assert edmd.Simulation(state).engine.mode == mode
+    state = edmd.random_packing(400, 0.25, dim=dim, seed=1)
+    assert edmd.Simulation(state, engine={"auto_threshold": 0.2}).engine.mode == "list"

@@ -47,12 +47,14 @@ class EngineOptions:
     Attributes:
         neighbours: ``"list"`` (neighbour lists with a shell; best for dense systems),
             ``"cells"`` (cell grid with crossing events; best for dilute systems) or ``"auto"``
-            (lists at packing fraction >= ``auto_threshold``).
+            (lists at packing fraction >= ``auto_threshold``, in a box without shear).
         skin: list shell thickness in units of the mean diameter (lists only): pairs whose
             list centres are closer than ``sigma_ij + skin`` are neighbours.
         resync_every: events between two maintenance resyncs, per particle.
         events_per_bucket: target occupation of a calendar bucket.
-        auto_threshold: packing fraction above which ``"auto"`` picks lists.
+        auto_threshold: packing fraction above which ``"auto"`` picks lists; ``None``: the
+            measured crossover of :data:`AUTO_THRESHOLD` (0.35 for spheres, 0.6 for disks;
+            benchmarks/README.md, "Neighbour structure").
         debug: check at every collision that the pair touches and that neither partner
             overlaps any neighbour (relative tolerance ``debug_tolerance``); a violation stops
             the run with :class:`EngineError`. Slower; for testing.
@@ -67,7 +69,7 @@ class EngineOptions:
     skin: float = 0.5
     resync_every: float = 50.0
     events_per_bucket: float = 4.0
-    auto_threshold: float = 0.2
+    auto_threshold: float | None = None
     debug: bool = False
     debug_tolerance: float = 1e-9
     cell_size: float | None = None
@@ -83,6 +85,11 @@ class EngineOptions:
             raise ValueError(f"events_per_bucket must be positive, got {self.events_per_bucket}")
         if self.cell_size is not None and not self.cell_size >= 1.0:
             raise ValueError(f"cell_size must be >= 1 (cells at least one contact distance wide), got {self.cell_size}")
+
+
+#: packing fraction from which ``neighbours="auto"`` takes lists, by dimension: where lists overtake
+#: cells (N = 1e4, one core; mono- and polydisperse, benchmarks/README.md "Neighbour structure")
+AUTO_THRESHOLD = {2: 0.6, 3: 0.35}
 
 
 class EngineError(RuntimeError):
@@ -193,7 +200,8 @@ class Engine:
         opt = self.options
         mode = opt.neighbours
         if mode == "auto":
-            mode = "list" if (state.packing_fraction >= opt.auto_threshold or self._pair_state) and self.shear is None else "cells"
+            threshold = AUTO_THRESHOLD[self.dim] if opt.auto_threshold is None else opt.auto_threshold
+            mode = "list" if (state.packing_fraction >= threshold or self._pair_state) and self.shear is None else "cells"
         if mode == "cells" and self._pair_state:
             what = "square wells" if self.well is not None else "growing particles"
             raise StateError(f"{what} need neighbours='list' (or 'auto'): their pair events are predicted over neighbour lists")
