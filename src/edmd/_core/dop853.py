@@ -84,12 +84,27 @@ E3 = np.array([-0.18980075407240762,  0.                 ,  0.                 ,
   0.                 ])
 
 
+#: the weights ``B``, ``E5`` and ``E3`` vanish at stages 1 to ``WEIGHTS_FROM - 1``: sums over the
+#: stages take stage 0, then start here
+WEIGHTS_FROM = 5
+
+
+@leaf
+def stage_from(s):
+    """Where the sum of stage ``s`` goes on after column 0: ``A[s, 1:stage_from(s)]`` vanish."""
+    return 1 if s <= 2 else (2 if s <= 4 else 3)
+
+
+assert not B[1:WEIGHTS_FROM].any() and not E5[1:WEIGHTS_FROM].any() and not E3[1:WEIGHTS_FROM].any()
+assert all(not A[s, 1 : stage_from(s)].any() for s in range(N_STAGES))
+
+
 @leaf
 def error_terms(K, comp, scale):
     """The 5th- and 3rd-order error estimates of component ``comp`` of a step, over ``scale``."""
-    a5 = 0.0
-    a3 = 0.0
-    for j in range(N_STAGES):
+    a5 = E5[0] * K[0, comp]
+    a3 = E3[0] * K[0, comp]
+    for j in range(WEIGHTS_FROM, N_STAGES):
         a5 += E5[j] * K[j, comp]
         a3 += E3[j] * K[j, comp]
     return a5 / scale, a3 / scale

@@ -21,7 +21,7 @@ the 13 x 3 stage buffer ``K`` comes from the caller).
 import math
 
 from .contact import MODEL_HERTZ
-from .dop853 import A, B, N_STAGES, error_norm, error_terms
+from .dop853 import A, B, N_STAGES, WEIGHTS_FROM, error_norm, error_terms, stage_from
 from .jit import jit, leaf
 
 #: step-size control of the embedded DOP853 pair (the values of Hairer's code and scipy)
@@ -55,19 +55,21 @@ def _step(model, c, lam, cen, x0, v0, p0, h, K, rtol, atol):
     the new state and the scaled error norm of Hairer's 5(3) estimator.
     """
     for s in range(1, N_STAGES):
-        dx = 0.0
-        dv = 0.0
-        dp = 0.0
-        for j in range(s):
+        a = A[s, 0]
+        dx = a * K[0, 0]
+        dv = a * K[0, 1]
+        dp = a * K[0, 2]
+        for j in range(stage_from(s), s):
             a = A[s, j]
             dx += a * K[j, 0]
             dv += a * K[j, 1]
             dp += a * K[j, 2]
         K[s, 0], K[s, 1], K[s, 2] = _rhs(model, c, lam, cen, x0 + h * dx, v0 + h * dv)
-    sx = 0.0
-    sv = 0.0
-    sp = 0.0
-    for j in range(N_STAGES):
+    b = B[0]
+    sx = b * K[0, 0]
+    sv = b * K[0, 1]
+    sp = b * K[0, 2]
+    for j in range(WEIGHTS_FROM, N_STAGES):
         b = B[j]
         sx += b * K[j, 0]
         sv += b * K[j, 1]

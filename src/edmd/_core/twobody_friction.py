@@ -44,7 +44,7 @@ Everything is a plain compiled function over scalars and caller-provided scratch
 import math
 
 from .contact import MODEL_HERTZ, contact_scales
-from .dop853 import A, B, N_STAGES, error_norm, error_terms
+from .dop853 import A, B, N_STAGES, WEIGHTS_FROM, error_norm, error_terms, stage_from
 from .jit import jit, leaf
 from .twobody import collision_frame
 
@@ -65,6 +65,12 @@ _SAFETY, _MIN_FACTOR, _MAX_FACTOR = 0.9, 0.2, 10.0
 _MAX_STEP = 0.25
 _MAX_STEPS = 200000
 _MAX_SWITCHES = 10000
+#: :func:`_root`'s first bracket: this many step sizes either side of the interpolant's root
+_ROOT_BRACKET = 1e-5
+#: :func:`_root` stops when its bracket is this many times ``rtol`` wide (relative): the state at
+#: the root then errs by far less than a step's tolerance (closing the bracket to round-off took
+#: half the steps of a contact, most of them halvings near the root)
+_ROOT_TOL = 1e-3
 #: a switching function this far below zero at the start of a step means the mode has ended there
 _SWITCH_TOL = 1e-9
 #: a contact at the margin (the trial force tracks the Coulomb limit: both modes give the limit
@@ -229,15 +235,16 @@ def _step(prm, mode, x0, h, K, xs, x1, rtol, atol):
     """
     n = x0.shape[0]
     for st in range(1, N_STAGES):
+        start = stage_from(st)
         for q in range(n):
-            acc = 0.0
-            for j in range(st):
+            acc = A[st, 0] * K[0, q]
+            for j in range(start, st):
                 acc += A[st, j] * K[j, q]
             xs[q] = x0[q] + h * acc
         rhs(prm, mode, xs, K[st])
     for q in range(n):
-        acc = 0.0
-        for j in range(N_STAGES):
+        acc = B[0] * K[0, q]
+        for j in range(WEIGHTS_FROM, N_STAGES):
             acc += B[j] * K[j, q]
         x1[q] = x0[q] + h * acc
     g_end, g_sw = rhs(prm, mode, x1, K[12])
@@ -255,34 +262,90 @@ def _step(prm, mode, x0, h, K, xs, x1, rtol, atol):
 
 
 @leaf
+def _illinois(lo, hi, glo, ghi, side, s, gv):
+    """One update of the Illinois-modified regula falsi bracket ``[lo, hi]`` (``g(lo) > 0 >= g(hi)``)
+    by the value ``gv`` at ``s``; returns ``(lo, hi, glo, ghi, side)``."""
+    if gv > 0.0:
+        if side == 1:
+            ghi *= 0.5
+        return s, hi, gv, ghi, 1
+    if side == -1:
+        glo *= 0.5
+    return lo, s, glo, gv, -1
+
+
+@leaf
+def _secant(lo, hi, glo, ghi):
+    """The regula falsi point of the bracket, or its middle where that falls outside."""
+    s = hi - ghi * (hi - lo) / (ghi - glo)
+    return s if lo < s < hi else 0.5 * (lo + hi)
+
+
+@leaf
+def _event(which, shift, ge, gs):
+    return ge if which == 0 else gs + shift
+
+
+@leaf
+def _hermite_root(prm, mode, x0, h, g0, g1, which, shift, K, xs, x1):
+    r"""Where event function ``which`` crosses zero along the cubic Hermite interpolant of the step
+    (``x0``, ``K[0]``; ``x1``, ``K[12]``): each trial costs one derivative evaluation (into
+    ``K[1]``) instead of a step. Its error, :math:`O(h^4)`, leaves the root a few :math:`10^{-6}h`
+    off at most (measured); :func:`_root` polishes it with full steps."""
+    lo, hi, glo, ghi = 0.0, 1.0, g0, g1
+    side = 0
+    f0, f1 = K[0], K[12]
+    for _ in range(100):
+        th = _secant(lo, hi, glo, ghi)
+        for q in range(N_STATE):
+            d = x1[q] - x0[q]
+            xs[q] = x0[q] + th * d + th * (th - 1.0) * ((1.0 - 2.0 * th) * d + (th - 1.0) * h * f0[q] + th * h * f1[q])
+        ge, gs = rhs(prm, mode, xs, K[1])
+        lo, hi, glo, ghi, side = _illinois(lo, hi, glo, ghi, side, th, _event(which, shift, ge, gs))
+        if hi - lo <= 1e-13:
+            break
+    return 0.5 * (lo + hi) * h
+
+
+@leaf
 def _root(prm, mode, x0, h, g0, g1, which, shift, K, xs, x1, rtol, atol):
     """Step size in ``(0, h]`` at which event function ``which`` (0: end, 1: switch, plus ``shift``) crosses zero.
 
-    Illinois-modified regula falsi on full DOP853 steps from ``x0`` (``g0 > 0 >= g1``). Returns
-    ``(s, g_end, g_switch)`` at the root (the smallest size found on the far side); ``x1`` and
-    ``K[12]`` hold the state and derivatives there.
+    Illinois-modified regula falsi on full DOP853 steps from ``x0`` (``g0 > 0 >= g1``), until the
+    bracket is :data:`_ROOT_TOL` ``rtol`` wide (relative). It starts from two steps
+    :data:`_ROOT_BRACKET` ``h`` either side of the root of the step's interpolant
+    (:func:`_hermite_root`; when they do not bracket the root, what they tell still narrows the
+    search), and once an iterate is estimated within half the tolerance of the root, the next
+    steps just past it to close the bracket (regula falsi alone closes it from one side only).
+    A step where the function is zero ends the search: the root to round-off (a flat function is
+    zero over a range of sizes, where the secant degenerates). Returns ``(s, g_end, g_switch)`` at
+    the root (the smallest size found on the far side); ``x1`` and ``K[12]`` hold the state and
+    derivatives there.
     """
     lo, hi, glo, ghi = 0.0, h, g0, g1
     side = 0
+    guess = _hermite_root(prm, mode, x0, h, g0, g1, which, shift, K, xs, x1)
+    tol = max(4e-16, _ROOT_TOL * rtol)
+    near = False
     s = h
-    for _ in range(200):
-        s = hi - ghi * (hi - lo) / (ghi - glo)
+    ge, gs = 0.0, 0.0
+    for probe in range(202):
+        if probe < 2:
+            s = guess + (2 * probe - 1) * _ROOT_BRACKET * h
+        elif near:  # just past the end that moved last
+            s = lo + 0.5 * tol * hi if side == 1 else hi - 0.5 * tol * hi
+        else:
+            s = _secant(lo, hi, glo, ghi)
         if not (lo < s < hi):
+            if probe < 2:
+                continue
             s = 0.5 * (lo + hi)
         _err, ge, gs = _step(prm, mode, x0, s, K, xs, x1, rtol, atol)
-        gv = ge if which == 0 else gs + shift
-        if gv > 0.0:
-            lo, glo = s, gv
-            if side == 1:
-                ghi *= 0.5
-            side = 1
-        else:
-            hi, ghi = s, gv
-            if side == -1:
-                glo *= 0.5
-            side = -1
-        if hi - lo <= 4e-16 * hi:
+        gv = _event(which, shift, ge, gs)
+        lo, hi, glo, ghi, side = _illinois(lo, hi, glo, ghi, side if probe >= 2 else 0, s, gv)
+        if gv == 0.0 or (probe >= 1 and hi - lo <= tol * hi):  # (a zero: the root, to round-off)
             break
+        near = probe >= 2 and not near and abs(gv) * (hi - lo) < 0.5 * tol * hi * abs(ghi - glo)
     if s != hi:
         _err, ge, gs = _step(prm, mode, x0, hi, K, xs, x1, rtol, atol)
     return hi, ge, gs
