@@ -90,7 +90,7 @@ def test_a_failure_of_the_figures_keeps_the_summary_of_the_run(tmp_path, monkeyp
 
 @pytest.mark.parametrize("stop", ["off_grid", "max_events"])
 def test_the_end_of_a_run_writes_a_final_frame_and_checkpoint(tmp_path, stop):
-    cfg = small(until=0.5, interval=10.0) if stop == "off_grid" else small(until=50.0, interval=10.0, run={"max_events": 3000})
+    cfg = small(until=0.5, interval=10.0) if stop == "off_grid" else small(until=50.0, interval=10.0, run={"max_events": 1000})
     out = tmp_path / "run"
     summary = run_directory(cfg, out)
     end = summary["time"]
