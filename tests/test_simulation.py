@@ -18,7 +18,7 @@ def test_split_run_is_bit_for_bit_the_whole_run(dim):
     b = _sim(dim, engine={"resync_every": 3.0})
     for t in (0.5, 1.25, 2.0, 3.7):
         b.run(until_time=t)
-    b.run(max_events=300)
+    b.run(max_events=100)
     assert b.time < 4.0
     b.run(until_time=4.0)
     sa, sb = a.state, b.state
