@@ -308,7 +308,7 @@ def _hermite_root(prm, mode, x0, h, g0, g1, which, shift, K, xs, x1):
     return 0.5 * (lo + hi) * h
 
 
-@leaf
+@jit
 def _root(prm, mode, x0, h, g0, g1, which, shift, K, xs, x1, rtol, atol):
     """Step size in ``(0, h]`` at which event function ``which`` (0: end, 1: switch, plus ``shift``) crosses zero.
 
