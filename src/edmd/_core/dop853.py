@@ -95,10 +95,6 @@ def stage_from(s):
     return 1 if s <= 2 else (2 if s <= 4 else 3)
 
 
-assert not B[1:WEIGHTS_FROM].any() and not E5[1:WEIGHTS_FROM].any() and not E3[1:WEIGHTS_FROM].any()
-assert all(not A[s, 1 : stage_from(s)].any() for s in range(N_STAGES))
-
-
 @leaf
 def error_terms(K, comp, scale):
     """The 5th- and 3rd-order error estimates of component ``comp`` of a step, over ``scale``."""
