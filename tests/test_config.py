@@ -194,6 +194,19 @@ def test_engine_debug_reaches_the_engine():
     assert build_simulation(cfg).engine.options.debug is True
 
 
+@pytest.mark.parametrize("dim", [2, 3])
+def test_engine_auto_threshold_reaches_the_engine(dim):
+    """[engine] auto_threshold moves where "auto" takes lists (default: the measured crossover,
+    cells at packing fraction 0.3); out of (0, 1] it is refused, naming the key."""
+    from edmd.app.runner import build_simulation
+
+    system = {"dim": dim, "n": 200, "packing_fraction": 0.3}
+    assert build_simulation(parse_config({"system": system})).engine.mode == "cells"
+    assert build_simulation(parse_config({"system": system, "engine": {"auto_threshold": 0.25}})).engine.mode == "list"
+    with pytest.raises(ConfigError, match="engine.auto_threshold"):
+        parse_config({"engine": {"auto_threshold": 1.5}})
+
+
 def test_a_float_for_a_whole_number_gets_a_hint():
     with pytest.raises(ConfigError, match=r"run\.max_events: .*write it without a decimal point or exponent \(1000000\)"):
         parse_config({"run": {"max_events": 1e6}})
