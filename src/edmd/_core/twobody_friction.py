@@ -474,8 +474,9 @@ def solve_frictional(prm, s, rtol, K, W, info):
     Adaptive DOP853 at relative tolerance ``rtol``; the end (:math:`\\tilde F_n = 0`) and every
     stick/slip switch are located by regula falsi on full steps, to :data:`_ROOT_TOL` ``rtol``
     (docs/physics.md §4.11, "Roots"). ``s`` is overwritten with the final state (sliding:
-    ``s[Z:]`` the scaled tangential force). ``K``: ``(13, 15)`` scratch, ``W``: ``(3, 15)`` scratch. ``info`` receives the scaled
-    duration, the number of switches, the final mode and the number of steps. Returns ``False``
+    ``s[Z:]`` the scaled tangential force). ``K``: ``(13, 15)`` scratch, ``W``: ``(3, 15)``
+    scratch. ``info`` receives the scaled duration, the number of switches, the final mode and
+    the number of steps. Returns ``False``
     if the integration failed (too many steps or switches).
     """
     atol = 1e-3 * rtol

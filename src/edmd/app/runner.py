@@ -117,8 +117,7 @@ def build_simulation(cfg: Config, state: State | None = None) -> Simulation:
             state, contact, dt=i.dt, steps_per_contact=i.steps_per_contact, impact_speed=i.impact_speed, gravity=cfg.system.gravity, skin=i.skin,
             friction=friction,
         )  # fmt: skip
-    e = cfg.engine
-    options = EngineOptions(neighbours=e.neighbours, skin=e.skin, resync_every=e.resync_every, events_per_bucket=e.events_per_bucket, debug=e.debug, cell_size=e.cell_size, auto_threshold=e.auto_threshold)
+    options = EngineOptions(**cfg.engine.model_dump())  # (every [engine] key is an option of the same name)
     rule = cfg.collision.build(float(state.mass.mean()), None if cfg.friction is None else cfg.friction.build())
     walls = cfg.walls.build(cfg.collision.material(), getattr(rule, "contact", None))
     bath = None if cfg.thermostat is None else cfg.thermostat.build()
