@@ -11,6 +11,7 @@ Usage::
 
     python benchmarks/bench_paired.py OLD_TREE NEW_TREE --n 10976 --eta 0.5 --neighbours list
     python benchmarks/bench_paired.py OLD_TREE NEW_TREE --n 10000 --eta 0.05 --neighbours cells --emdstar
+    python benchmarks/bench_paired.py OLD_TREE NEW_TREE --n 1000000 --eta 0.5 --replicate 5 --chunk 5
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ import time
 from bench_hard_spheres import write_results
 
 
-def worker(n: int, eta: float, neighbours: str, chunk: float, walls: bool, dim: int, emdstar: bool) -> None:
+def worker(n: int, eta: float, neighbours: str, chunk: float, walls: bool, dim: int, emdstar: bool, replicate: int) -> None:
     """Serve chunks: read a line, run ``chunk * n`` events, print the collision rate."""
     import edmd
 
@@ -38,7 +39,8 @@ def worker(n: int, eta: float, neighbours: str, chunk: float, walls: bool, dim: 
         state = edmd.maxwell_boltzmann(state, float(state.mass[0]) / 3.0, seed=2)
         sim = edmd.Simulation(state, collision=EMDStar(CONTACT), engine={"neighbours": neighbours})
     else:
-        state = edmd.maxwell_boltzmann(edmd.random_packing(n, eta, dim=dim, seed=1, periodic=periodic), 1.0, seed=2)
+        start = edmd.random_packing(n // replicate**dim, eta, dim=dim, seed=1, periodic=periodic)
+        state = edmd.maxwell_boltzmann(edmd.replicate(start, [replicate] * dim) if replicate > 1 else start, 1.0, seed=2)
         sim = edmd.Simulation(state, engine={"neighbours": neighbours})
     sim.run(max_events=20 * n)
     print("ready", flush=True)
@@ -50,7 +52,7 @@ def worker(n: int, eta: float, neighbours: str, chunk: float, walls: bool, dim: 
 
 def start(tree: str, args) -> subprocess.Popen:
     env = {**os.environ, "PYTHONPATH": os.path.join(os.path.abspath(tree), "src")}
-    cmd = [sys.executable, __file__, "--worker", "--n", str(args.n), "--eta", str(args.eta), "--neighbours", args.neighbours, "--chunk", str(args.chunk), "--dim", str(args.dim)] + (["--walls"] if args.walls else []) + (["--emdstar"] if args.emdstar else [])
+    cmd = [sys.executable, __file__, "--worker", "--n", str(args.n), "--eta", str(args.eta), "--neighbours", args.neighbours, "--chunk", str(args.chunk), "--dim", str(args.dim), "--replicate", str(args.replicate)] + (["--walls"] if args.walls else []) + (["--emdstar"] if args.emdstar else [])
     proc = subprocess.Popen(["taskset", "-c", str(args.core), *cmd], env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     if proc.stdout.readline().strip() != "ready":
         raise SystemExit(f"the build in {tree} failed to start")
@@ -75,12 +77,13 @@ def main():
     ap.add_argument("--core", type=int, default=0)
     ap.add_argument("--walls", action="store_true", help="elastic walls on the last axis (the wall code paths)")
     ap.add_argument("--dim", type=int, default=3)
+    ap.add_argument("--replicate", type=int, default=1, help="relax n / k^dim particles and tile them k times per axis (large N; hard spheres)")
     ap.add_argument("--emdstar", action="store_true", help="eMD* (the viscoelastic gas of bench_emdstar.py) instead of elastic hard spheres")
     ap.add_argument("--out", default=None)
     ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.worker:
-        return worker(args.n, args.eta, args.neighbours, args.chunk, args.walls, args.dim, args.emdstar)
+        return worker(args.n, args.eta, args.neighbours, args.chunk, args.walls, args.dim, args.emdstar, args.replicate)
     a, b = start(args.old, args), start(args.new, args)
     ra, rb = [], []
     for r in range(args.rounds):

@@ -71,6 +71,23 @@ def test_zeno_without_tc_stops_with_a_clear_message(dim):
     assert sim.state.position[0, -1] - R + 0.5 >= -1e-12  # consistent state: on the floor, not through it
 
 
+def test_zeno_in_reduced_units_stops_instead_of_creeping(dim):
+    # g = 1, sigma = 1: once at rest, the ball bounces by round-off and each bounce moves the clock
+    # on by ~10 ulps, which the stall count once took for progress (the run hung). Released at gap
+    # h0: t_inf = sqrt(2 h0) (1 + e) / (1 - e), to the bounce of a round-off height (h ~ 1e-15, 1e-7
+    # long). (A gap of 2 happens to end on exact zeros: that run stopped before the fix too.)
+    e, h0 = 0.5, 1.3
+    pos, vel = np.zeros((1, dim)), np.zeros((1, dim))
+    pos[0, -1] = -5.0 + 0.5 + h0
+    s = edmd.State(position=pos, velocity=vel, radius=0.5, mass=1.0, box=[10.0] * dim, periodic=[False] * dim)
+    g = np.zeros(dim)
+    g[-1] = -1.0
+    sim = edmd.Simulation(s, walls=collide.Wall(e_n=e), gravity=g)
+    with pytest.raises(CollapseError, match="without the clock advancing"):
+        sim.run(until_time=100.0, max_events=200_000)
+    assert sim.time == pytest.approx(math.sqrt(2 * h0) * (1 + e) / (1 - e), abs=1e-6)
+
+
 def test_zeno_with_tc_keeps_bouncing_with_a_fixed_period(dim):
     h0, e, tc = 0.3, 0.8, 1e-3
     sim = ball(dim, h0, e, rule=collide.TC(collide.Inelastic(1.0), tc))

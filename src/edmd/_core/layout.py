@@ -45,6 +45,10 @@ N_TIMERS = 1
 NB_LIST = 0
 NB_CELLS = 1
 
+#: a wall collision less than this fraction of the clock after the previous event does not count as
+#: the clock advancing (2^-46: ~64 ulps; a particle resting on a wall bounces every ~10 ulps)
+STALL_RESOLUTION = 2.0**-46
+
 # loop status codes
 ST_TIME = 0  # reached the stop time
 ST_EVENTS = 1  # reached the event budget

@@ -21,14 +21,14 @@ from .cells import bin_all, walk_around, walk_next
 from .collide import collide_pair, collide_wall
 from .emdstar import emd_contact, emd_contact_frictional, execute_b, finish_contact, is_pending
 from .forcing import white_noise_kick
-from .jit import hot, jit
+from .jit import hot, jit, leaf
 from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTACT_GROWN, CONTACT_SOFT, CONTACT_WELL, NB_LIST, NORMAL_SOFT, TANGENT_SMOOTH
 from .nblist import build_lists, list_reach, rebuild_list
 from .predict import advance, separation
 from .stress import integrate_sheared
 from .wallmotion import free_fall, has_wall, integrate_riding, release, take_off
 from .queue import queue_top, queue_update
-from .schedule import cross_cell, predict_aux, predict_pair, repredict, requeue, wrap_into_box
+from .schedule import cross_cell, predict_aux, predict_pair, prefetch_neighbours, repredict, requeue, warm_next, wrap_into_box
 from .growth import collide_growing
 from .wells import capture_by_distance, well_event, well_reach
 
@@ -178,6 +178,17 @@ def loop_variant(
     return _VARIANTS[key]
 
 
+@leaf
+def _resting_on_wall(i, t_abs, now_abs, ev):
+    """Whether the event of ``i`` is a wall collision a few ulps of the clock after the last event:
+    a particle at rest on a wall under gravity (the Zeno limit) bounces by round-off, and each
+    bounce moves the clock on by ~10 ulps, so the loop's stall count would never grow (the run
+    would hang instead of stopping with a collapse)."""
+    k = ev.aux_k[i]
+    wall = ev.aux_t[i] <= ev.pair_t[i] and k >= L.AUX_WALL and k < L.AUX_WALL_END
+    return wall and t_abs - now_abs <= L.STALL_RESOLUTION * t_abs
+
+
 def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well, grow):
     @jit
     def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, etab, emd, drive, pairs, t_stop, max_events):
@@ -209,13 +220,15 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well, grow
             i = queue_top(q)
             if i < 0:
                 return L.ST_IDLE
+            warm_next(q, P, count, ev, lists, mode)
             t = key[i]
             if t >= t_stop:
                 return L.ST_TIME
             if done >= max_events:
                 return L.ST_EVENTS
-            if origin + t > origin + acc[L.A_NOW]:  # the absolute clock advanced (a local advance
-                # below its resolution, left after a resync re-based the clock, does not count)
+            if origin + t > origin + acc[L.A_NOW] and not (walls and _resting_on_wall(i, origin + t, origin + acc[L.A_NOW], ev)):
+                # the absolute clock advanced (a local advance below its resolution, left after a
+                # resync re-based the clock, does not count)
                 cnt[L.C_ZENO_RUN] = 0
             else:
                 cnt[L.C_ZENO_RUN] += 1
@@ -343,6 +356,8 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well, grow
                     # An eMD* A event in cells mode has predicted both partners' pair events in
                     # its relocation scans (emdstar.relocation_scan)
                     predicted = emd_on and outcome == CONTACT_SOFT and mode != NB_LIST
+                    if mode == NB_LIST:  # j's neighbours load while i's are tested
+                        prefetch_neighbours(P, lists, j)
                     if not predicted:
                         predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate, skin)
                     predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t, grow, rate)

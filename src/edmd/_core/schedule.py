@@ -22,8 +22,9 @@ from .images import cross_y_face, fold_into_box, sheared, sheared_type
 from .jit import hot, jit
 from .layout import NB_LIST
 from .nblist import SQRT3, shell_exit_time
+from .prefetch import prefetch
 from .predict import INF, advance, box_shift, flight, gap_time, pair_contact_time, wrap3
-from .queue import queue_update
+from .queue import QI_SIZE, queue_update
 from .wallmotion import vibrating_type, has_wall, is_moving, level_time, ride_axis, ride_end, wall_params
 from .walls import moving_wall_time, ride_pair_dt
 from .growth import closer_grow
@@ -74,6 +75,15 @@ def scan_cells(i, t, P, count, ev, grid, geo, cbuf, axis, step):
 
 
 @hot
+def prefetch_neighbours(P, lists, i):
+    """Start loading the rows of all listed neighbours of ``i`` (:mod:`.prefetch`): the pair tests
+    then find them arriving together, not one after the other (large N: none is in a cache)."""
+    nbl = lists.members
+    for s in range(lists.size[i]):
+        prefetch(P, nbl[i, s])
+
+
+@hot
 def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate, skin):
     """Full re-prediction of the earliest contact of ``i`` (neighbour list or 3^d cells; with
     lists in a sheared box, also the partners across the sliding face, :func:`sliding_partners`).
@@ -90,6 +100,7 @@ def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, 
         bj = -1
         bk = L.PAIR_CORE
         count_work(grid, 0, nbl_n[i])
+        prefetch_neighbours(P, lists, i)
         for s in range(nbl_n[i]):
             if grow:
                 best, bj = closer_grow(xi, yi, zi, vxi, vyi, vzi, ri, P, nbl[i, s], t, geo, rate, best, bj)
@@ -107,6 +118,31 @@ def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, 
     ev.pair_j[i] = -1
     if mode != NB_LIST:
         scan_cells(i, t, P, count, ev, grid, geo, cbuf, np.int64(-1), np.int64(0))
+
+
+@hot
+def warm_next(q, P, count, ev, lists, mode):
+    """Start loading what the next event will read (:mod:`.prefetch`): the particle of the next
+    event is one of the calendar heap's two entries below the top (unless the current event
+    schedules an earlier one), and its rows are far in memory from the current particle's."""
+    heap = q.heap
+    size = q.ints[QI_SIZE]
+    n = P.shape[0]
+    for c in range(1, 3):
+        if c < size:
+            k = heap[c]
+            if k < n:  # (not a global timer)
+                prefetch(P, k)
+                prefetch(ev.pair_t, k)
+                prefetch(ev.pair_j, k)
+                prefetch(ev.pair_c, k)
+                prefetch(ev.aux_t, k)
+                prefetch(ev.aux_k, k)
+                prefetch(count, k)
+                prefetch(q.loc, k)
+                if mode == NB_LIST:
+                    prefetch(lists.members, k)
+                    prefetch(lists.size, k)
 
 
 @hot
