@@ -83,6 +83,10 @@ def test_run_from_a_gsd_frame(tmp_path, dim):
     assert f'from_file = "{(tmp_path / "src.gsd").resolve()}"' in (out / "config.toml").read_text()
     r = runner.invoke(app, ["run", str(cfg), "--out", str(out), "--from", str(tmp_path / "nope.gsd")])
     assert r.exit_code == 2 and "no file" in r.output
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "run2"), "--from", str(tmp_path / "src.gsd"), "--max-memory", "1K"])
+    assert r.exit_code == 2 and "N = 200 particles needs about" in " ".join(r.output.split())  # the frame's N, not [system] n
+    r = runner.invoke(app, ["run", "--restart", str(out), "--out", str(tmp_path / "z"), "--max-memory", "8G", "--frame", "0"])
+    assert r.exit_code == 2 and "give no --frame, --out, --max-memory" in " ".join(r.output.split())
 
 
 def test_export_command(tmp_path):

@@ -71,6 +71,7 @@ def test_typo_is_named_with_a_suggestion():
         ({"system": {"replicate": [2, 2]}}, "replicate needs 3 numbers"),
         ({"system": {"replicate": [2, 0, 1]}}, "system.replicate"),
         ({"system": {"replicate": [1, 1, 2]}, "walls": {"axes": ["z"]}}, "replicate tiles the periodic axes only; walls close 'z'"),
+        ({"system": {"mass": 2.0, "density": 3.0}}, r"mass = 2.0 and density = 3.0 both set the mass"),
     ],
 )
 def test_invalid_values_are_named(data, match):

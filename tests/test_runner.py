@@ -44,14 +44,31 @@ def test_an_existing_run_is_refused_without_force(tmp_path, dim):
 def test_force_removes_every_file_of_the_old_run(tmp_path):
     out = tmp_path / "run"
     run_directory(small(), out)
-    for stale in ("temperature.png", "movie.gif", "summary.json"):
-        (out / stale).write_bytes(b"old")
+    stale = ("temperature.png", "movie.gif", "summary.json", "viscosity.png", "shear_profile.png", "profile_z.csv")  # (steady, transport, shear)
+    for name in stale:
+        (out / name).write_bytes(b"old")
     (out / "notes.txt").write_text("mine")  # not a run file: kept
     run_directory(small(until=1.0, interval=0.5), out, force=True)
     names = {p.name for p in out.iterdir()}
-    assert "temperature.png" not in names and "movie.gif" not in names
+    assert not names & (set(stale) - {"summary.json"})
     assert (out / "notes.txt").read_text() == "mine"
     assert json.loads((out / "summary.json").read_text())["time"] == 1.0
+
+
+def test_a_directory_another_process_writes_into_is_refused(tmp_path):
+    # the lock is taken before the (possibly long) set-up: two runs started together into one
+    # directory once both succeeded, the second removing what the first had written
+    out = tmp_path / "run"
+    with edmd.app.runner.directory_lock(out):
+        for attempt in (lambda: run_directory(small(), out), lambda: run_directory(small(), out, force=True)):
+            with pytest.raises(RunDirectoryError, match="in use: another edmd process is writing into it"):
+                attempt()
+        assert not edmd.app.runner.run_files(out)
+    run_directory(small(until=1.0), out)  # released
+    with edmd.app.runner.directory_lock(out):
+        with pytest.raises(RunDirectoryError, match="in use"):
+            restart_directory(out, until_time=2.0)
+    assert restart_directory(out, until_time=2.0)["time"] == 2.0
 
 
 def test_images_of_the_user_are_not_a_run_and_stay(tmp_path):

@@ -58,7 +58,7 @@ def _load_job(config: Path | None, start_from: Path | None, frame: int):
 @app.command()
 def run(
     config: Path = typer.Argument(None, help="TOML configuration; without it the built-in showcase runs."),
-    out: Path = typer.Option(Path("edmd-run"), "--out", "-o", help="Run directory for config, thermo, trajectory, checkpoint, plots."),
+    out: Path = typer.Option(None, "--out", "-o", help="Run directory for config, thermo, trajectory, checkpoint, plots [default: edmd-run]."),
     start_from: Path = typer.Option(None, "--from", help="Start from a frame of this GSD file (the \\[system] settings are then ignored)."),
     frame: int = FRAME_OF_FROM,
     restart: Path = typer.Option(None, "--restart", help="Continue the run in this directory from its checkpoint."),
@@ -77,13 +77,16 @@ def run(
         with warnings.catch_warnings(), _announce_compiles():
             warnings.showwarning = _warn  # restored on exit (the CLI may run inside another program)
             if restart is not None:
-                if config is not None or start_from is not None or force or debug:
-                    raise ConfigError("--restart continues a run directory with its own configuration: give no CONFIG, --from, --force or --debug")
+                given = [name for name, x in (("CONFIG", config), ("--from", start_from), ("--frame", frame != -1 or None), ("--out", out),
+                                              ("--force", force or None), ("--max-memory", max_memory), ("--debug", debug or None)) if x is not None]  # fmt: skip
+                if given:
+                    raise ConfigError(f"--restart continues a run directory in place with its own configuration: give no {', '.join(given)}")
                 out = restart
                 summary = restart_directory(restart, until_time=until_time, progress=None if progress else False)
             else:
                 if until_time is not None:
                     raise ConfigError("--until-time goes with --restart; set [run] until_time in the configuration")
+                out = Path("edmd-run") if out is None else out
                 cfg = _load_job(config, start_from, frame)
                 if debug:
                     cfg.engine.debug = True

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import math
@@ -9,6 +10,11 @@ import platform
 import tomllib
 import warnings
 from pathlib import Path
+
+try:
+    import fcntl
+except ImportError:  # pragma: no cover - Windows: no advisory locks, directories are not guarded
+    fcntl = None
 
 import numpy as np
 from pydantic import ValidationError
@@ -25,17 +31,26 @@ from ..run.simulation import Simulation
 from ..state import State
 from ..files.thermo import Thermo, read_thermo
 from ..files.impacts import WallImpacts
-from ..files.trajectory import Trajectory, read_state, trajectory_run_id, write_state
+from ..files.trajectory import Trajectory, frame_size, read_state, trajectory_run_id, write_state
 
 #: files a run writes into its directory
 RUN_FILES = ("config.toml", "thermo.csv", "trajectory.gsd", "checkpoint.gsd", "summary.json", "error_state.gsd", "wall_impacts.csv")
-#: the figures and movies edmd writes into a run directory (``edmd plot``, ``edmd movie``); other
-#: images there are the user's: they neither make the directory a run nor are removed with it
-RUN_FIGURES = tuple(
-    f"{stem}.png"
-    for stem in ("temperature", "pressure", "emd_exceptions", "height", "energy", "velocity_distribution", "rdf", "msd", "snapshot", "impact_phases")
-    + tuple(f"profile_{axis}" for axis in "xyz")
-) + ("movie.gif", "movie.mp4")
+#: the figures, movies and analysis tables edmd writes into a run directory (``edmd plot``,
+#: ``movie``, ``steady``, ``transport``, ``shear``); other files there are the user's: they neither
+#: make the directory a run nor are removed with it
+RUN_FIGURES = (
+    tuple(
+        f"{stem}.png"
+        for stem in ("temperature", "pressure", "emd_exceptions", "height", "energy", "velocity_distribution", "rdf", "msd", "snapshot", "impact_phases")
+        + ("viscosity", "conductivity", "shear_stress", "shear_profile")
+        + tuple(f"profile_{axis}" for axis in "xyz")
+    )
+    + tuple(f"profile_{axis}.csv" for axis in "xyz")
+    + ("movie.gif", "movie.mp4")
+)
+#: the lock a run or restart holds on its directory while it writes there (never removed: removing
+#: it would let a second process lock a new file while a third still holds the old one)
+LOCK_FILE = ".edmd.lock"
 #: configuration keys that may change when a run is continued (they do not change its physics)
 RESTART_MUTABLE = ("run.until_time", "run.max_events", "run.wall_time", "run.progress", "output.plots")
 _ID_LINE = "# edmd run id: "
@@ -153,6 +168,45 @@ def make_observers(cfg: Config, out: Path, run_id: str | None = None) -> list[Ob
     return observers
 
 
+@contextlib.contextmanager
+def directory_lock(out: Path):
+    """Hold an exclusive lock on run directory ``out`` (created if missing) while a run or restart
+    writes there: a second edmd process asking for it is refused at once, so two runs never
+    write into one directory. The lock is the operating system's (``flock``): a killed run
+    releases it.
+
+    Example:
+        >>> import tempfile
+        >>> with tempfile.TemporaryDirectory() as d:
+        ...     with directory_lock(Path(d)):
+        ...         try:
+        ...             with directory_lock(Path(d)):
+        ...                 pass
+        ...         except RunDirectoryError as e:
+        ...             print(str(e)[-40:])
+        another edmd process is writing into it
+    """
+    if out.exists() and not out.is_dir():
+        raise RunDirectoryError(f"{out} exists and is not a directory")
+    created = not out.exists()
+    out.mkdir(parents=True, exist_ok=True)
+    try:
+        if fcntl is None:  # pragma: no cover
+            yield
+            return
+        with open(out / LOCK_FILE, "a") as handle:
+            try:
+                fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                raise RunDirectoryError(f"{out} is in use: another edmd process is writing into it") from None
+            yield
+    except BaseException:
+        if created and {p.name for p in out.iterdir()} <= {LOCK_FILE}:  # a run that failed before writing leaves no directory
+            (out / LOCK_FILE).unlink(missing_ok=True)
+            out.rmdir()
+        raise
+
+
 def run_files(out: Path) -> list[Path]:
     """The files of a run in directory ``out`` (its data, figures and movies)."""
     return [out / name for name in RUN_FILES + RUN_FIGURES if (out / name).exists()]
@@ -234,23 +288,27 @@ def run_directory(cfg: Config, out: str | Path, progress: bool | None = None, *,
     Returns the summary (also written as ``summary.json``).
     """
     out = Path(out)
-    if cfg.system.from_file is None:
-        check_memory(cfg.system.n, max_memory)
+    n = cfg.system.n if cfg.system.from_file is None else frame_size(cfg.system.from_file, cfg.system.from_frame)
+    if n is not None:
+        check_memory(n, max_memory)
     if not force:
         _claim(out, force=False)
-    sim = build_simulation(cfg)
-    if sim.time >= cfg.run.until_time:  # a state read from a file has its own time
-        raise ConfigError(
-            f"run.until_time = {cfg.run.until_time!r} is not after the initial time {sim.time!r} (frame "
-            f"{cfg.system.from_frame} of {cfg.system.from_file}): until_time is absolute, set it later than {sim.time!r}"
-        )
-    _warn_trajectory_size(cfg, sim.engine.n, sim.time)  # not sim.state: a full snapshot copy
-    _claim(out, force=True)
-    run_id = run_identity(cfg, sim.state)
-    write_atomic(out / "config.toml", config_text(cfg, run_id))
-    for observer in make_observers(cfg, out, run_id):
-        sim.add(observer)
-    return _execute(sim, cfg, out, progress)
+    with directory_lock(out):
+        if not force:  # (again, holding the lock: a run may have finished there meanwhile)
+            _claim(out, force=False)
+        sim = build_simulation(cfg)
+        if sim.time >= cfg.run.until_time:  # a state read from a file has its own time
+            raise ConfigError(
+                f"run.until_time = {cfg.run.until_time!r} is not after the initial time {sim.time!r} (frame "
+                f"{cfg.system.from_frame} of {cfg.system.from_file}): until_time is absolute, set it later than {sim.time!r}"
+            )
+        _warn_trajectory_size(cfg, sim.engine.n, sim.time)  # not sim.state: a full snapshot copy
+        _claim(out, force=True)
+        run_id = run_identity(cfg, sim.state)
+        write_atomic(out / "config.toml", config_text(cfg, run_id))
+        for observer in make_observers(cfg, out, run_id):
+            sim.add(observer)
+        return _execute(sim, cfg, out, progress)
 
 
 #: bytes per particle of one trajectory frame (double precision: positions, velocities, angular
@@ -385,39 +443,40 @@ def restart_directory(out: str | Path, until_time: float | None = None, progress
     out = Path(out)
     if not out.is_dir():
         raise CheckpointError(f"no run directory {out}")
-    path = out / "checkpoint.gsd"
-    disk_id, disk_cfg = _read_run_config(out / "config.toml")
-    if not path.is_file() and disk_cfg is not None and (disk_cfg.integrator.kind == "dem" or not disk_cfg.output.checkpoint):
-        why = "DEM runs write no checkpoint" if disk_cfg.integrator.kind == "dem" else "it ran with [output] checkpoint = false"
-        raise CheckpointError(f"{out} cannot be continued: {why}; start a new run from its last frame with `edmd run CONFIG --from {out / 'trajectory.gsd'}`")
-    data = read_checkpoint(path)
-    cfg = _stored_config(path, data.metadata.get("config"))
-    _check_identity(out, data, disk_id)
-    changes = {} if disk_cfg is None else config_changes(cfg, disk_cfg)
-    fixed = [k for k in changes if k not in RESTART_MUTABLE]
-    if fixed:
-        listing = "; ".join(f"{k}: {changes[k][0]!r} -> {changes[k][1]!r}" for k in fixed)
-        raise ConfigError(
-            f"{out / 'config.toml'} was edited after the run started ({listing}). A restart continues the "
-            f"checkpoint's physics and output: only {', '.join(RESTART_MUTABLE)} may change. Undo the edits, "
-            "or start a new run with the edited file"
-        )
-    for key in changes:
-        set_key(cfg, key, changes[key][1])
-    if until_time is not None:
-        if until_time <= data.time:
-            raise ConfigError(f"--until-time {until_time!r} is not after the checkpoint time {data.time!r}: nothing to continue")
-        changes["run.until_time"] = (cfg.run.until_time, until_time)
-        set_key(cfg, "run.until_time", until_time)
-    _check_end(cfg.run.until_time, data, "--until-time" if until_time is not None else "run.until_time =")
-    run_id = data.metadata.get("run_id") or disk_id or run_identity(cfg, data.state)
-    sim = load_checkpoint(path, make_observers(cfg, out, run_id), data=data)
-    notes = [f"continued at t = {data.time!r}: {k} {a!r} -> {b!r}" for k, (a, b) in changes.items()]
-    previous = _previous_notes(out / "config.toml")
-    write_atomic(out / "config.toml", config_text(cfg, run_id, previous + notes))
-    replayed = 0 if data.final_events is None else data.final_events - data.events  # recomputed, not new
-    summary = _execute(sim, cfg, out, progress, {"restart_changes": {k: list(v) for k, v in changes.items()}} if changes else None, replayed)
-    return summary
+    with directory_lock(out):
+        path = out / "checkpoint.gsd"
+        disk_id, disk_cfg = _read_run_config(out / "config.toml")
+        if not path.is_file() and disk_cfg is not None and (disk_cfg.integrator.kind == "dem" or not disk_cfg.output.checkpoint):
+            why = "DEM runs write no checkpoint" if disk_cfg.integrator.kind == "dem" else "it ran with [output] checkpoint = false"
+            raise CheckpointError(f"{out} cannot be continued: {why}; start a new run from its last frame with `edmd run CONFIG --from {out / 'trajectory.gsd'}`")
+        data = read_checkpoint(path)
+        cfg = _stored_config(path, data.metadata.get("config"))
+        _check_identity(out, data, disk_id)
+        changes = {} if disk_cfg is None else config_changes(cfg, disk_cfg)
+        fixed = [k for k in changes if k not in RESTART_MUTABLE]
+        if fixed:
+            listing = "; ".join(f"{k}: {changes[k][0]!r} -> {changes[k][1]!r}" for k in fixed)
+            raise ConfigError(
+                f"{out / 'config.toml'} was edited after the run started ({listing}). A restart continues the "
+                f"checkpoint's physics and output: only {', '.join(RESTART_MUTABLE)} may change. Undo the edits, "
+                "or start a new run with the edited file"
+            )
+        for key in changes:
+            set_key(cfg, key, changes[key][1])
+        if until_time is not None:
+            if until_time <= data.time:
+                raise ConfigError(f"--until-time {until_time!r} is not after the checkpoint time {data.time!r}: nothing to continue")
+            changes["run.until_time"] = (cfg.run.until_time, until_time)
+            set_key(cfg, "run.until_time", until_time)
+        _check_end(cfg.run.until_time, data, "--until-time" if until_time is not None else "run.until_time =")
+        run_id = data.metadata.get("run_id") or disk_id or run_identity(cfg, data.state)
+        sim = load_checkpoint(path, make_observers(cfg, out, run_id), data=data)
+        notes = [f"continued at t = {data.time!r}: {k} {a!r} -> {b!r}" for k, (a, b) in changes.items()]
+        previous = _previous_notes(out / "config.toml")
+        write_atomic(out / "config.toml", config_text(cfg, run_id, previous + notes))
+        replayed = 0 if data.final_events is None else data.final_events - data.events  # recomputed, not new
+        summary = _execute(sim, cfg, out, progress, {"restart_changes": {k: list(v) for k, v in changes.items()}} if changes else None, replayed)
+        return summary
 
 
 def _check_end(end: float, data: CheckpointData, what: str):

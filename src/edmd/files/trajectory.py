@@ -264,6 +264,30 @@ def read_state(path: str | os.PathLike, frame: int = -1, check_overlaps: bool = 
         raise _open_error(path, exc) from exc
 
 
+def frame_size(path: str | os.PathLike, frame: int = -1) -> int | None:
+    """The number of particles in frame ``frame`` of a GSD file, read without loading the frame;
+    ``None`` if the file cannot tell (:func:`read_state` then names the problem).
+
+    Example:
+        >>> import edmd, tempfile, os
+        >>> p = os.path.join(tempfile.mkdtemp(), "s.gsd")
+        >>> write_state(p, edmd.lattice(32, 0.2))
+        >>> frame_size(p)
+        32
+    """
+    try:
+        with gsd.fl.open(str(path), "r") as f:
+            frames = f.nframes
+            if not -frames <= frame < frames:
+                return None
+            for k in (frame % frames, 0):  # (a frame without the chunk has frame 0's)
+                if f.chunk_exists(frame=k, name="particles/N"):
+                    return int(f.read_chunk(frame=k, name="particles/N")[0])
+    except (OSError, RuntimeError, ValueError, KeyError):
+        pass
+    return None
+
+
 def write_state(path: str | os.PathLike, state: State, totals: Totals | None = None):
     """Write ``state`` as the only frame of a new GSD file."""
     with gsd.hoomd.open(str(path), "w", precision="double") as traj:
