@@ -162,6 +162,9 @@ def test_compile_warms_the_loop_of_a_feature_set():
     assert "plain:" in r.output and "walls:" in r.output and "bath:" in r.output
     r = runner.invoke(app, ["compile", "walls"])  # now cached
     assert "walls: already cached" in r.output
+    runner.invoke(app, ["compile", "walls+vibration"])
+    r = runner.invoke(app, ["compile", "walls+vibration"])  # (the cache check once used a geometry one entry short)
+    assert "walls+vibration: already cached" in r.output
 
 
 def test_compile_names_a_bad_feature():

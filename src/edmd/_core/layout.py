@@ -24,7 +24,7 @@ AUX_RIDE = 66  # a particle riding on the vibrating wall takes off (wallmotion.p
 # Dispatch is explicit: every kind the loop knows is tested for, and any other code stops the
 # run with ST_BAD_EVENT (a new kind must be given its own branch, it can never fall into another's).
 
-# kinds of pair events (Events.pair_k; only runs with a square well have kinds other than core)
+# kinds of pair events (Pairs.kind; only runs with a square well have kinds other than core)
 PAIR_CORE = 0  # the hard cores touch: the collision rule
 PAIR_CAPTURE = 1  # an outside pair reaches the well's edge (wells.py)
 PAIR_EDGE = 2  # a captured pair reaches the edge from inside: released, or bounced back

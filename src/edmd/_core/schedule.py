@@ -19,7 +19,7 @@ from numba.extending import overload
 from . import layout as L
 from .cells import cell_insert, cell_of_point, cell_remove, count_work, crossing_time, face_side, walk_cells, walk_next
 from .images import cross_y_face, fold_into_box, sheared, sheared_type
-from .jit import hot, jit
+from .jit import hot, jit, leaf
 from .layout import NB_LIST
 from .nblist import SQRT3, shell_exit_time
 from .prefetch import prefetch
@@ -74,7 +74,7 @@ def scan_cells(i, t, P, count, ev, grid, geo, cbuf, axis, step):
         set_pair(ev, count, i, t + best, bj)
 
 
-@hot
+@leaf
 def prefetch_neighbours(P, lists, i):
     """Start loading the rows of all listed neighbours of ``i`` (:mod:`.prefetch`): the pair tests
     then find them arriving together, not one after the other (large N: none is in a cache)."""
@@ -120,7 +120,7 @@ def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, 
         scan_cells(i, t, P, count, ev, grid, geo, cbuf, np.int64(-1), np.int64(0))
 
 
-@hot
+@leaf
 def warm_next(q, P, count, ev, lists, mode):
     """Start loading what the next event will read (:mod:`.prefetch`): the particle of the next
     event is one of the calendar heap's two entries below the top (unless the current event

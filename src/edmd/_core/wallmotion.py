@@ -209,7 +209,7 @@ def _ride_piece(t, geo):
 
 def vibrating_type(geo):
     """Whether the Numba type of a geometry is that of a run with a vibrating wall (typing time)."""
-    return isinstance(geo, types.BaseTuple) and len(geo) > N_GEO_SHEAR  # (a sheared geometry has 12 entries, a vibrating wall's 16 or 17)
+    return isinstance(geo, types.BaseTuple) and len(geo) > N_GEO_SHEAR  # (a sheared geometry has 12 entries, a vibrating wall's 17)
 
 
 # The hooks below are the only doors from the event loop into the riders' code. Each is an

@@ -144,7 +144,7 @@ def compile_features(features: frozenset[str]) -> tuple[str, float, bool]:
         'plain'
     """
     loop = _variant(features)
-    geo = (0.0,) * (L.G_WALL_PHASE + 1 if "vibration" in features else L.N_GEO_SHEAR if "shear" in features else L.G_ON + 1)  # (longer geometries)
+    geo = (0.0,) * (L.G_WALL_STICK + 1 if "vibration" in features else L.N_GEO_SHEAR if "shear" in features else L.G_ON + 1)  # (longer geometries)
     cached = in_disk_cache(loop.run_events, (GEO_ARG, geo))
     start = time.perf_counter()
     sim = _example(features)
