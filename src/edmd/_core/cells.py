@@ -25,6 +25,7 @@ from .bundles import Grid
 from .images import image_offset, sheared, sheared_type
 from .layout import G_LX, G_LY, G_SHEAR_RATE
 from .predict import INF, gap_time
+from .prefetch import prefetch
 
 
 #: index in ``Grid.shape`` of the work counters (cells scanned, then pairs tested)
@@ -317,7 +318,11 @@ def walk_cells(grid, c, geo, cbuf, axis, step, t, horizon):
 
     ``cbuf`` (27 int32) holds the cells during the walk.
     """
-    return _walk_from(grid.head, cbuf, cell_block(grid, c, geo, cbuf, axis, step, t, horizon), 0)
+    nc = cell_block(grid, c, geo, cbuf, axis, step, t, horizon)
+    head = grid.head
+    for s in range(nc):  # the cells' heads loading at once (large N: none is in a cache)
+        prefetch(head, cbuf[s])
+    return _walk_from(head, cbuf, nc, 0)
 
 
 @leaf

@@ -31,6 +31,10 @@ from .growth import closer_grow
 from .wells import closer_well, well_reach
 
 
+#: the number of particles from which a cell scan prefetches the rows of the cells' first particles
+PREFETCH_ROWS_FROM = 1 << 16
+
+
 @hot
 def set_pair(ev, count, i, t, j):
     ev.pair_t[i] = t
@@ -69,6 +73,13 @@ def scan_cells(i, t, P, count, ev, grid, geo, cbuf, axis, step):
     """Improve the pair event of ``i`` with the particles of a block of cells (see ``cell_block``)."""
     xi, yi, zi, vxi, vyi, vzi = flight(P, i, t, geo)
     nc, s, j = walk_cells(grid, grid.cell[i], geo, cbuf, axis, step, t, sliding_horizon(i, t, P, grid, geo))
+    if P.shape[0] >= PREFETCH_ROWS_FROM:  # the cells' first rows loading at once (+14 % at N = 1e6,
+        # eta = 0.3; -15 % for small systems, whose rows are in the caches)
+        for k in range(s, nc):
+            h = grid.head[cbuf[k]]
+            if h >= 0:
+                prefetch(P, h)
+                prefetch(grid.link, h)
     best, bj = _closest_in_walk(i, xi, yi, zi, vxi, vyi, vzi, P[i, L.R], P, t, grid, geo, cbuf, nc, s, j, ev.pair_t[i] - t, -1)
     if bj >= 0:
         set_pair(ev, count, i, t + best, bj)
