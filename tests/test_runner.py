@@ -71,6 +71,17 @@ def test_a_directory_another_process_writes_into_is_refused(tmp_path):
     assert restart_directory(out, until_time=2.0)["time"] == 2.0
 
 
+def test_a_file_system_without_locks_runs_unguarded_with_a_warning(tmp_path, monkeypatch):
+    import errno
+
+    def no_locks(handle, operation):
+        raise OSError(errno.ENOLCK, "No locks available")
+
+    monkeypatch.setattr(edmd.app.runner.fcntl, "flock", no_locks)  # (Lustre's default, some NFS mounts)
+    with pytest.warns(UserWarning, match="no file locks .*nothing stops a second run"):
+        assert run_directory(small(until=1.0), tmp_path / "run")["time"] == 1.0
+
+
 def test_images_of_the_user_are_not_a_run_and_stay(tmp_path):
     out = tmp_path / "project"
     out.mkdir()

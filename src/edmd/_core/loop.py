@@ -226,7 +226,7 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well, grow
                 return L.ST_TIME
             if done >= max_events:
                 return L.ST_EVENTS
-            if origin + t > origin + acc[L.A_NOW] and not (walls and _resting_on_wall(i, origin + t, origin + acc[L.A_NOW], ev)):
+            if origin + t > origin + acc[L.A_NOW] and not (walls and i < n and _resting_on_wall(i, origin + t, origin + acc[L.A_NOW], ev)):
                 # the absolute clock advanced (a local advance below its resolution, left after a
                 # resync re-based the clock, does not count)
                 cnt[L.C_ZENO_RUN] = 0

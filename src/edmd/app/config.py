@@ -108,8 +108,6 @@ class SystemConfig(_Section):
                 raise ValueError(f"replicate = {self.replicate}: n = {self.n} is not a multiple of the {copies} copies")
         if self.init == "compress" and self.kT <= 0:
             raise ValueError("init = 'compress' needs kT > 0 (the particles fly while they grow)")
-        if self.density is not None and self.mass != 1.0:  # (a stored config writes the default mass beside a density)
-            raise ValueError(f"mass = {self.mass!r} and density = {self.density!r} both set the mass: give one (density: mass = density * particle volume)")
         return self
 
 
