@@ -1,5 +1,7 @@
 """Initial states: lattices, random packings, radius distributions, Maxwell-Boltzmann velocities."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -109,6 +111,16 @@ def test_maxwell_boltzmann_refuses_a_temperature_for_one_particle(dim):
     with pytest.raises(edmd.StateError, match="single particle .* cannot have a temperature"):
         edmd.maxwell_boltzmann(one, 1.0)
     assert np.all(edmd.maxwell_boltzmann(one, 0.0).velocity == 0.0)
+
+
+def test_a_lattice_between_walls_names_its_own_limit():
+    # squeezed to fit between the walls, the sites touch below close packing (0.7405): the message
+    # once gave the periodic spacing (1.019 > 1) and limit (0.7405 > 0.7) for a refused 0.7
+    with pytest.raises(StateError, match=r"squeezed between the walls\) but their particles need 1 \(they touch near packing fraction (0\.\d+)") as err:
+        lattice(256, 0.7, periodic=[False] * 3)
+    near = float(re.search(r"near packing fraction (0\.\d+)", str(err.value)).group(1))
+    assert 0.55 < near < 0.7
+    lattice(256, 0.97 * near, periodic=[False] * 3)  # (builds)
 
 
 def test_polydisperse_lattice_returns_the_arrangement_it_checked():

@@ -194,13 +194,16 @@ def lattice(
     nn = a * {"sc": 1.0, "fcc": 1 / math.sqrt(2), "square": 1.0, "hex": 1.0}[kind]
     if nn < 2.0 * r.max() * (1 + 1e-12) or not periodic.all():
         trial = State(position=pos, velocity=np.zeros_like(pos), radius=r, mass=1.0, box=box, periodic=periodic, check_overlaps=False)
-        if trial.overlapping_pair(0.0) is not None:
-            eta_max = packing_fraction * (nn / (2.0 * r.max())) ** dim
+        pair = trial.overlapping_pair(0.0)
+        if pair is not None:  # (the closest sites: with walls the lattice is squeezed between them)
+            i, j, d = pair
+            eta_max = packing_fraction * (d / (r[i] + r[j])) ** dim
             magic = {"fcc": "4 k^3", "sc": "k^3", "square": "k^2", "hex": "2 k^2 (near-square boxes)"}[kind]
+            where = " (squeezed between the walls)" if not periodic.all() else ""
             raise StateError(
                 f"packing fraction {packing_fraction} cannot be built on a {kind} lattice with these radii: "
-                f"neighbouring sites are {nn:.6g} apart but the largest diameter is {2 * r.max():.6g} "
-                f"(at most {eta_max:.4f} here; n = {magic} fills the lattice exactly)"
+                f"neighbouring sites are {d:.6g} apart{where} but their particles need {r[i] + r[j]:.6g} "
+                f"(they touch near packing fraction {eta_max:.4f}; n = {magic} fills the lattice exactly)"
             )
     m = _masses(r, dim, mass, density)
     return State(position=pos, velocity=np.zeros_like(pos), radius=r, mass=m, box=box, periodic=periodic)
