@@ -82,7 +82,7 @@ def build_state(cfg: Config) -> State:
 def _particles(cfg: Config) -> dict:
     """The keywords of ``[system]`` (and ``[walls]``) that every initial state takes."""
     s = cfg.system
-    if s.density is not None and s.mass != 1.0:  # (refused here, for new states only: the configs stored by older runs hold both, and density won)
+    if s.density is not None and s.mass != type(s).model_fields["mass"].default:  # (refused here, for new states only: configs stored by older runs hold both, and density won)
         raise ConfigError(f"system: mass = {s.mass!r} and density = {s.density!r} both set the mass: give one (density: mass = density * particle volume)")
     radius = s.radius if isinstance(s.radius, float) else s.radius.as_dict()
     periodic = [axis not in cfg.walls.axes for axis in "xyz"[: s.dim]]
