@@ -3,7 +3,10 @@
 Each build (a source tree with ``src/edmd``) runs in its own process pinned to one core, from the
 same amorphous start, equilibrated for 20 events per particle (which also compiles). The two
 processes then take turns, one chunk of ``--chunk`` events per particle each (the order flips
-every round), so a slow spell of the shared host hits both builds of a round alike. Reported:
+every round), so a slow spell of the shared host hits both builds of a round alike. With
+``--pairs K`` this is repeated with K fresh process pairs: at large N a process keeps its memory
+placement for life, and one pair's ratio was measured 1.20 where the next pair's read 1.00.
+Reported:
 per build the best and the median M collisions/s (the loop's own CPU-time timer), and the
 median, min and max of the per-round ratio B/A.
 
@@ -43,19 +46,31 @@ def worker(n: int, eta: float, neighbours: str, chunk: float, walls: bool, dim: 
         state = edmd.maxwell_boltzmann(edmd.replicate(start, [replicate] * dim) if replicate > 1 else start, 1.0, seed=2)
         sim = edmd.Simulation(state, engine={"neighbours": neighbours})
     sim.run(max_events=20 * n)
-    print("ready", flush=True)
+    print("ready", *_huge_pages(), flush=True)
     for _line in sys.stdin:
         c0, t0 = sim.collisions, time.process_time()
         sim.run(max_events=int(chunk * n))
         print((sim.collisions - c0) / (time.process_time() - t0), flush=True)
 
 
+def _huge_pages() -> tuple[int, int]:
+    """MB of this process's memory on transparent huge pages, and its resident MB (0, 0 where unknown)."""
+    try:
+        with open("/proc/self/smaps_rollup") as f:
+            kb = {line.split(":")[0]: int(line.split()[1]) for line in f if line.split()[-1] == "kB"}
+        return kb.get("AnonHugePages", 0) // 1024, kb.get("Rss", 0) // 1024
+    except OSError:
+        return 0, 0
+
+
 def start(tree: str, args) -> subprocess.Popen:
     env = {**os.environ, "PYTHONPATH": os.path.join(os.path.abspath(tree), "src")}
     cmd = [sys.executable, __file__, "--worker", "--n", str(args.n), "--eta", str(args.eta), "--neighbours", args.neighbours, "--chunk", str(args.chunk), "--dim", str(args.dim), "--replicate", str(args.replicate)] + (["--walls"] if args.walls else []) + (["--emdstar"] if args.emdstar else [])
     proc = subprocess.Popen(["taskset", "-c", str(args.core), *cmd], env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
-    if proc.stdout.readline().strip() != "ready":
+    ready = proc.stdout.readline().split()
+    if not ready or ready[0] != "ready":
         raise SystemExit(f"the build in {tree} failed to start")
+    print(f"{tree}: {ready[1]} of {ready[2]} MB resident on huge pages", flush=True)
     return proc
 
 
@@ -72,7 +87,8 @@ def main():
     ap.add_argument("--n", type=int, default=10976)
     ap.add_argument("--eta", type=float, default=0.5)
     ap.add_argument("--neighbours", default="list")
-    ap.add_argument("--rounds", type=int, default=16)
+    ap.add_argument("--rounds", type=int, default=16, help="turns of each process pair")
+    ap.add_argument("--pairs", type=int, default=1, help="fresh process pairs, one after the other (large N: where a process's arrays land in memory, e.g. on huge pages, moves its rate by up to 20 %% for its whole life)")
     ap.add_argument("--chunk", type=float, default=30.0, help="events per particle per turn")
     ap.add_argument("--core", type=int, default=0)
     ap.add_argument("--walls", action="store_true", help="elastic walls on the last axis (the wall code paths)")
@@ -84,23 +100,37 @@ def main():
     args = ap.parse_args()
     if args.worker:
         return worker(args.n, args.eta, args.neighbours, args.chunk, args.walls, args.dim, args.emdstar, args.replicate)
-    a, b = start(args.old, args), start(args.new, args)
-    ra, rb = [], []
-    for r in range(args.rounds):
-        for proc, out in ((a, ra), (b, rb)) if r % 2 == 0 else ((b, rb), (a, ra)):
-            out.append(rate(proc))
-    for proc in (a, b):
-        proc.stdin.close()
-        proc.wait()
+    ra, rb, pair_medians = [], [], []
+    for p in range(args.pairs):
+        # the process started first may find more free huge pages: the order alternates too
+        if p % 2 == 0:
+            a = start(args.old, args)
+            b = start(args.new, args)
+        else:
+            b = start(args.new, args)
+            a = start(args.old, args)
+        pa, pb = [], []
+        for r in range(args.rounds):
+            for proc, out in ((a, pa), (b, pb)) if (r + p) % 2 == 0 else ((b, pb), (a, pa)):
+                out.append(rate(proc))
+        for proc in (a, b):
+            proc.stdin.close()
+            proc.wait()
+        pair_medians.append(statistics.median(y / x for x, y in zip(pa, pb)))
+        if args.pairs > 1:
+            print(f"pair {p + 1}: B/A median {pair_medians[-1]:.4f}", flush=True)
+        ra += pa
+        rb += pb
     ratios = [y / x for x, y in zip(ra, rb)]
     summary = {
         "A": {"tree": args.old, "best": max(ra) / 1e6, "median": statistics.median(ra) / 1e6},
         "B": {"tree": args.new, "best": max(rb) / 1e6, "median": statistics.median(rb) / 1e6},
         "ratio_B_over_A": {"median": statistics.median(ratios), "min": min(ratios), "max": max(ratios)},
+        "pair_medians": pair_medians,
     }
     print(f"A: best {summary['A']['best']:.4f} median {summary['A']['median']:.4f} M collisions/s")
     print(f"B: best {summary['B']['best']:.4f} median {summary['B']['median']:.4f} M collisions/s")
-    print(f"B/A per round: median {statistics.median(ratios):.4f} (min {min(ratios):.4f}, max {max(ratios):.4f}, {args.rounds} rounds)")
+    print(f"B/A per round: median {statistics.median(ratios):.4f} (min {min(ratios):.4f}, max {max(ratios):.4f}, {args.rounds} rounds x {args.pairs} pairs)")
     out = args.out or f"benchmarks/results/paired_{args.n}_{args.eta}_{args.neighbours}{'_2d' if args.dim == 2 else ''}{'_emdstar' if args.emdstar else ''}.json"
     write_results(out, args, [summary])
 

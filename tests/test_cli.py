@@ -156,6 +156,13 @@ def test_cli_announces_a_large_trajectory(tmp_path, monkeypatch):
     assert "TrajectorySizeWarning" not in r.output  # one readable line, not Python's warning format
 
 
+def test_cli_names_keys_without_effect(tmp_path):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(SMALL.format(dim=2) + "\n[integrator]\ndt = 0.001\n")
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "run")])
+    assert r.exit_code == 0 and "warning: 1 key(s) of the configuration have no effect on this run: integrator.dt: used by" in r.output
+
+
 def test_compile_warms_the_loop_of_a_feature_set():
     r = runner.invoke(app, ["compile", "plain", "walls", "bath"])
     assert r.exit_code == 0, r.output

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import edmd
-from edmd.app.config import EXAMPLE, Config, ConfigError, dump_config, load_config, parse_config
+from edmd.app.config import EXAMPLE, Config, ConfigError, default_job, dump_config, ignored_keys, load_config, parse_config
 from edmd.app.runner import build_state
 
 ISSUE_EXAMPLE = """
@@ -229,3 +229,32 @@ def test_replicated_start_from_config(dim):
     copies = s.position.reshape(2**dim, 400, dim)
     assert np.allclose(np.abs(copies[1] - copies[0])[:, 0], s.box[0] / 2)  # copy 1 is copy 0 one base box along x
     assert not np.allclose(s.velocity[:400], s.velocity[400:800])  # the velocities are not copies
+
+
+@pytest.mark.parametrize(
+    "data, notes",
+    [
+        ({"walls": {"e_n": 0.9, "mu": 0.1}}, ["walls.e_n: no walls", "walls.mu: no walls"]),
+        ({"walls": {"axes": ["x"], "e_n": 0.9}}, []),
+        ({"integrator": {"dt": 1e-3, "skin": 0.2}}, ["integrator.dt: used by integrator.kind = 'dem' only", "integrator.skin: used by"]),
+        ({"integrator": {"kind": "dem", "dt": 1e-3}, "contact": {"model": "dashpot", "k": 1e4}}, []),
+        ({"integrator": {"kind": "dem"}, "contact": {"model": "dashpot", "k": 1e4}, "engine": {"neighbours": "list"}}, ["engine.neighbours: the DEM has no event engine"]),
+        ({"engine": {"neighbours": "list", "cell_size": 2.0}}, ["engine.cell_size: used by neighbours = 'cells' only"]),
+        ({"engine": {"neighbours": "cells", "cell_size": 2.0}}, []),
+        ({"engine": {"neighbours": "cells", "auto_threshold": 0.3}}, ["engine.auto_threshold: chooses between lists and cells"]),
+        ({"engine": {"auto_threshold": 0.3}}, []),
+        ({"system": {"from_frame": 2}}, ["system.from_frame: picks a frame of system.from_file"]),
+        ({"system": {"init": "random", "compress_rate": 0.1}}, ["system.compress_rate: used by init = 'compress' only"]),
+        ({"system": {"init": "compress", "compress_rate": 0.1}}, []),
+        ({"system": {"from_file": "start.gsd", "n": 10}}, []),  # (the command announces that [system] is ignored)
+    ],
+)
+def test_keys_without_effect_are_named(data, notes):
+    found = ignored_keys(parse_config(data))
+    assert len(found) == len(notes) and all(f.startswith(note) for f, note in zip(found, notes)), found
+
+
+def test_the_shipped_configurations_set_no_key_without_effect():
+    import tomllib
+
+    assert ignored_keys(default_job()) == [] and ignored_keys(parse_config(tomllib.loads(EXAMPLE))) == []

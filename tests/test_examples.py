@@ -4,7 +4,7 @@ from pathlib import Path
 
 import pytest
 
-from edmd.app.config import load_config
+from edmd.app.config import ignored_keys, load_config
 from edmd.app.runner import run_directory
 
 EXAMPLES = sorted(Path(__file__).resolve().parents[1].joinpath("examples").glob("*.toml"))
@@ -19,6 +19,7 @@ def test_examples_exist():
 @pytest.mark.parametrize("path", RUNNABLE, ids=lambda p: p.stem)
 def test_example_runs(path, tmp_path):
     cfg = load_config(path)
+    assert ignored_keys(cfg) == []  # (an example teaches no key without effect)
     cfg.run.until_time = min(cfg.run.until_time, 3 * cfg.run.output_interval)
     cfg.run.progress = False
     summary = run_directory(cfg, tmp_path)

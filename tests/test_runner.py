@@ -13,7 +13,7 @@ from edmd.files.checkpoint import CheckpointError, read_checkpoint
 from edmd.app.config import ConfigError, parse_config
 from edmd.run.engine import CollapseError
 from edmd.run.memory import MemoryLimitError
-from edmd.app.runner import RunDirectoryError, TrajectorySizeWarning, restart_directory, run_directory
+from edmd.app.runner import IgnoredKeyWarning, RunDirectoryError, TrajectorySizeWarning, restart_directory, run_directory
 from edmd.files.trajectory import frame_count, read_state, trajectory_run_id
 
 
@@ -309,6 +309,16 @@ def test_a_large_trajectory_is_announced(tmp_path, monkeypatch):
     monkeypatch.setattr(edmd.app.runner, "TRAJECTORY_WARN_BYTES", 64 * 100 * 4)
     with pytest.warns(TrajectorySizeWarning, match=r"about .* GB \(6 frames of 64 particles\)"):
         run_directory(small(until=2.0), tmp_path / "run")
+
+
+def test_a_new_run_warns_about_keys_without_effect_and_its_restart_does_not(tmp_path):
+    import warnings
+
+    with pytest.warns(IgnoredKeyWarning, match=r"1 key\(s\) .* no effect on this run: walls\.e_n: no walls"):
+        run_directory(small(until=1.0, walls={"e_n": 0.8}), tmp_path / "run")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", IgnoredKeyWarning)  # (the stored configuration writes every key out)
+        restart_directory(tmp_path / "run", until_time=1.5)
 
 
 def test_a_checkpoint_whose_config_newer_rules_reject_is_explained(tmp_path):

@@ -507,6 +507,45 @@ class Config(_Section):
         return self
 
 
+def _given(section: BaseModel | None, keys) -> list[str]:
+    """Those of ``keys`` that the configuration sets in ``section`` (not left at their defaults)."""
+    return [] if section is None else [k for k in keys if k in section.model_fields_set]
+
+
+def ignored_keys(cfg: Config) -> list[str]:
+    """The keys a configuration sets that its run would not use, each with the reason.
+
+    Valid but without effect (a run keeps them in its stored configuration, so they are not
+    refused): a wall's restitution with no walls, a time step of the DEM in an event-driven run,
+    a cell size with neighbour lists. ``edmd run`` warns about them for a new run. The keys of
+    ``[system]`` with ``from_file`` are not listed (the command says that they are ignored).
+
+    Example:
+        >>> cfg = parse_config({"walls": {"e_n": 0.9}, "integrator": {"dt": 1e-3}})
+        >>> for note in ignored_keys(cfg):
+        ...     print(note)
+        walls.e_n: no walls (walls.axes is empty)
+        integrator.dt: used by integrator.kind = 'dem' only
+    """
+    notes = []
+    s, w, i, e = cfg.system, cfg.walls, cfg.integrator, cfg.engine
+    if s.from_file is None:
+        notes += [f"system.{k}: picks a frame of system.from_file, which is not given" for k in _given(s, ["from_frame"])]
+    if s.init != "compress":
+        notes += [f"system.{k}: used by init = 'compress' only" for k in _given(s, ["compress_rate"])]
+    if not w.axes:
+        notes += [f"walls.{k}: no walls (walls.axes is empty)" for k in _given(w, ["e_n", "beta", "e_t", "mu", "viscoelastic"])]
+    if i.kind == "edmd":
+        notes += [f"integrator.{k}: used by integrator.kind = 'dem' only" for k in _given(i, ["dt", "steps_per_contact", "impact_speed", "skin"])]
+    else:
+        notes += [f"engine.{k}: the DEM has no event engine (its neighbour-list skin is integrator.skin)" for k in _given(e, EngineConfig.model_fields)]
+    if i.kind == "edmd" and e.neighbours == "list":
+        notes += [f"engine.{k}: used by neighbours = 'cells' only" for k in _given(e, ["cell_size"])]
+    if i.kind == "edmd" and e.neighbours != "auto":
+        notes += [f"engine.{k}: chooses between lists and cells for neighbours = 'auto' only" for k in _given(e, ["auto_threshold"])]
+    return notes
+
+
 def _known_keys(model: type[BaseModel], loc: tuple) -> list[str]:
     for part in loc[:-1]:
         field = model.model_fields.get(part) if isinstance(part, str) else None

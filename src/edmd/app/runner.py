@@ -23,7 +23,7 @@ from pydantic import ValidationError
 
 from ..files.atomic import atomic_path, write_atomic
 from ..files.checkpoint import Checkpoint, CheckpointData, CheckpointError, load_checkpoint, read_checkpoint, save_final_state
-from .config import Config, ConfigError, dump_config, format_errors, parse_config
+from .config import Config, ConfigError, dump_config, format_errors, ignored_keys, parse_config
 from ..run.engine import EngineError, EngineOptions
 from ..run.memory import check_memory
 from ..initial import lattice, maxwell_boltzmann, random_packing, replicate
@@ -329,6 +329,7 @@ def run_directory(cfg: Config, out: str | Path, progress: bool | None = None, *,
                 f"{cfg.system.from_frame} of {cfg.system.from_file}): until_time is absolute, set it later than {sim.time!r}"
             )
         _warn_trajectory_size(cfg, sim.engine.n, sim.time)  # not sim.state: a full snapshot copy
+        _warn_ignored_keys(cfg)
         _claim(out, force=True)
         run_id = run_identity(cfg, sim.state)
         write_atomic(out / "config.toml", config_text(cfg, run_id))
@@ -362,6 +363,18 @@ def _warn_trajectory_size(cfg: Config, n: int, start: float):
             TrajectorySizeWarning,
             stacklevel=3,
         )
+
+
+class IgnoredKeyWarning(UserWarning):
+    """A configuration sets keys that its run does not use (:func:`edmd.app.config.ignored_keys`)."""
+
+
+def _warn_ignored_keys(cfg: Config):
+    """Warn once about the keys of ``cfg`` that the run would not use (a new run only: the
+    configuration stored for a restart has every key written out)."""
+    notes = ignored_keys(cfg)
+    if notes:
+        warnings.warn(f"{len(notes)} key(s) of the configuration have no effect on this run: " + "; ".join(notes), IgnoredKeyWarning, stacklevel=3)
 
 
 def _stored_config(path: Path, text: str | None) -> Config:
