@@ -258,3 +258,13 @@ def test_the_shipped_configurations_set_no_key_without_effect():
     import tomllib
 
     assert ignored_keys(default_job()) == [] and ignored_keys(parse_config(tomllib.loads(EXAMPLE))) == []
+
+
+def test_a_configuration_written_out_in_full_names_the_same_keys():
+    """A sweep's points are written out with every key (dump_config): only the user's count."""
+    import tomllib
+
+    cfg = parse_config({"walls": {"e_n": 0.8}, "engine": {"neighbours": "list", "cell_size": 2.0}})
+    assert len(ignored_keys(cfg)) == 2
+    assert ignored_keys(parse_config(tomllib.loads(dump_config(cfg)))) == ignored_keys(cfg)
+    assert ignored_keys(parse_config(tomllib.loads(dump_config(Config())))) == []

@@ -507,13 +507,16 @@ class Config(_Section):
         return self
 
 
-def _given(section: BaseModel | None, keys) -> list[str]:
-    """Those of ``keys`` that the configuration sets in ``section`` (not left at their defaults)."""
-    return [] if section is None else [k for k in keys if k in section.model_fields_set]
+def _given(section: BaseModel, keys) -> list[str]:
+    """Those of ``keys`` that the configuration sets in ``section`` to other than their defaults
+    (a configuration written out in full, as a sweep's points are, sets every key)."""
+    fields = type(section).model_fields
+    return [k for k in keys if k in section.model_fields_set and getattr(section, k) != fields[k].default]
 
 
 def ignored_keys(cfg: Config) -> list[str]:
-    """The keys a configuration sets that its run would not use, each with the reason.
+    """The keys a configuration sets (to other than their defaults) that its run would not use,
+    each with the reason.
 
     Valid but without effect (a run keeps them in its stored configuration, so they are not
     refused): a wall's restitution with no walls, a time step of the DEM in an event-driven run,
