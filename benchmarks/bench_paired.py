@@ -29,8 +29,9 @@ import time
 from bench_hard_spheres import write_results
 
 
-def worker(n: int, eta: float, neighbours: str, chunk: float, walls: bool, dim: int, emdstar: bool, replicate: int) -> None:
-    """Serve chunks: read a line, run ``chunk * n`` events, print the collision rate."""
+def make_case(n: int, eta: float, neighbours: str, walls: bool, dim: int, emdstar: bool, replicate: int):
+    """The Simulation of a benchmark case (also :mod:`profile_loop`'s), equilibrated for 20 events
+    per particle (which also compiles)."""
     import edmd
 
     periodic = [True] * (dim - 1) + [not walls]
@@ -46,6 +47,12 @@ def worker(n: int, eta: float, neighbours: str, chunk: float, walls: bool, dim: 
         state = edmd.maxwell_boltzmann(edmd.replicate(start, [replicate] * dim) if replicate > 1 else start, 1.0, seed=2)
         sim = edmd.Simulation(state, engine={"neighbours": neighbours})
     sim.run(max_events=20 * n)
+    return sim
+
+
+def worker(n: int, eta: float, neighbours: str, chunk: float, walls: bool, dim: int, emdstar: bool, replicate: int) -> None:
+    """Serve chunks: read a line, run ``chunk * n`` events, print the collision rate."""
+    sim = make_case(n, eta, neighbours, walls, dim, emdstar, replicate)
     print("ready", *_huge_pages(), flush=True)
     for _line in sys.stdin:
         c0, t0 = sim.collisions, time.process_time()
