@@ -317,7 +317,7 @@ def test_a_new_run_warns_about_keys_without_effect_and_its_restart_does_not(tmp_
     with pytest.warns(IgnoredKeyWarning, match=r"1 key\(s\) .* no effect on this run: walls\.e_n: no walls"):
         run_directory(small(until=1.0, walls={"e_n": 0.8}), tmp_path / "run")
     with warnings.catch_warnings():
-        warnings.simplefilter("error", IgnoredKeyWarning)  # (the stored configuration writes every key out)
+        warnings.simplefilter("error", IgnoredKeyWarning)  # (announced once, when the run started)
         restart_directory(tmp_path / "run", until_time=1.5)
 
 

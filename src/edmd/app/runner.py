@@ -370,8 +370,8 @@ class IgnoredKeyWarning(UserWarning):
 
 
 def _warn_ignored_keys(cfg: Config):
-    """Warn once about the keys of ``cfg`` that the run would not use (a new run only: the
-    configuration stored for a restart has every key written out)."""
+    """Warn once about the keys of ``cfg`` that the run would not use (when a new run starts; its
+    restarts do not repeat it)."""
     notes = ignored_keys(cfg)
     if notes:
         warnings.warn(f"{len(notes)} key(s) of the configuration have no effect on this run: " + "; ".join(notes), IgnoredKeyWarning, stacklevel=3)
