@@ -25,8 +25,10 @@ import math
 
 import numpy as np
 
-#: cost of a crossing event in pair predictions (c_x / c_p), measured at N = 1e4, 3D, eta = 0.002-0.05
-CROSSING_COST = 19.0
+#: cost of a crossing event in pair predictions (c_x / c_p): 19 from the edge sweeps of 2026-12-02 (AMD
+#: EPYC), 7-8 from those of 2026-12-04 (Intel Xeon, the prefetching loop); 10 measured 1.06-1.09x
+#: faster than 19 on the latter in 3D, equal in 2D (benchmarks/README.md, "Cell size")
+CROSSING_COST = 10.0
 
 
 def mean_free_path(number_density: float, sigma: float, dim: int) -> float:
@@ -74,7 +76,7 @@ def cell_edge(number_density, sigma_mean: float, sigma_max: float, dim: int, wei
 
     Example:
         >>> round(cell_edge(0.0955, 1.0, 1.0, 3), 2), round(cell_edge(0.0191, 1.0, 1.0, 3), 2)   # eta = 0.05, 0.01
-        (1.52, 3.12)
+        (1.27, 2.58)
         >>> cell_edge(0.95, 1.0, 1.0, 3)   # dense: one contact distance
         1.0
         >>> cell_edge([0.0191, 0.95], 1.0, 1.0, 3, weights=[1, 1])   # half dilute, half dense: the dense half's
