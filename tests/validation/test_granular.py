@@ -170,20 +170,27 @@ def test_rough_gas_settles_to_the_kinetic_theory_ratio(dim, e, beta):
 
     The prediction assumes molecular chaos and independent Maxwellian translational and rotational
     velocities. Rough granular gases develop correlations between v and omega (Brilliantov, Poschel,
-    Kranz, Zippelius, PRL 98, 128001 (2007)) that this theory neglects; measured here: 3.5-5 % below
-    it in all cases (statistical error of the 20 000-collision average ~0.5 %).
+    Kranz, Zippelius, PRL 98, 128001 (2007)) that this theory neglects. Measured over 8 realizations
+    of N = 1000 (mean, and the standard deviation of one realization): 3D e = 0.9 -5.0 +- 2.0 %,
+    3D e = 0.8 beta = 0.5 -1.9 +- 2.2 %, 2D -4.2 +- 3.3 %. One realization alone fell outside 7 %
+    for 4 of these 24, so the test averages all 8 (standard error <= 1.2 %). Larger disk systems
+    depart further (-10 % at N = 2000, -22 % at 8000): there the homogeneous cooling of this dilute
+    2D gas is unstable.
     """
     q = 0.4 if dim == 3 else 0.5
-    s = edmd.maxwell_boltzmann(edmd.random_packing(1000, 0.02, dim=dim, seed=3), 1.0, seed=4, spin=True)
-    sim = edmd.Simulation(s, collision=collide.Rough(e, beta=beta))
-    ratios = []
-    for _ in range(8):  # 5 collisions per particle each
-        target = sim.collisions + 2500
-        while sim.collisions < target:
-            sim.run(max_events=20_000)
-        st = sim.state
-        ratios.append(st.rotational_temperature() / st.temperature())
-    measured = np.mean(ratios[4:])  # after 20 collisions per particle
+    measured = []
+    for k in range(8):
+        s = edmd.maxwell_boltzmann(edmd.random_packing(1000, 0.02, dim=dim, seed=3 + 10 * k), 1.0, seed=4 + 10 * k, spin=True)
+        sim = edmd.Simulation(s, collision=collide.Rough(e, beta=beta))
+        ratios = []
+        for _ in range(8):  # 5 collisions per particle each
+            target = sim.collisions + 2500
+            while sim.collisions < target:
+                sim.run(max_events=20_000)
+            st = sim.state
+            ratios.append(st.rotational_temperature() / st.temperature())
+        measured.append(np.mean(ratios[4:]))  # after 20 collisions per particle
+    measured = np.mean(measured)
     print(f"rough d={dim} e={e} beta={beta}: T_rot/T_tr = {measured:.4f}, theory {rough_hcs_ratio(dim, e, beta, q):.4f}")
     assert measured == pytest.approx(rough_hcs_ratio(dim, e, beta, q), rel=0.07)
 
