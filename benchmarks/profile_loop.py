@@ -121,8 +121,10 @@ def main():
     sim.state  # (the snapshot)
     functions = compiled_functions()
     print(f"{len(functions)} compiled functions mapped in {write_perf_map(functions)}")
-    perf = subprocess.Popen(["perf", "record", "-q", "-F", str(args.frequency), "-p", str(os.getpid()), "-o", args.out])
+    perf = subprocess.Popen(["perf", "record", "-q", "-F", str(args.frequency), "-p", str(os.getpid()), "-o", args.out], stderr=subprocess.PIPE, text=True)
     time.sleep(1.0)  # (perf attaching)
+    if perf.poll() is not None:  # (it could not attach: kernel.perf_event_paranoid, a container)
+        raise SystemExit(f"perf record could not sample this process:\n{perf.stderr.read()}")
     c0, e0, t0 = sim.collisions, sim.events, time.process_time()
     sim.run(max_events=int(args.events * args.n))
     seconds = time.process_time() - t0
