@@ -8,7 +8,7 @@ also prints the hottest instructions of the function whose name contains NAME, d
 from its loaded code (``objdump``): a sample is credited to the instruction after the one that
 stalls (a load that missed, a division).
 
-Needs ``perf`` (Linux) and permission to sample one's own process. Run by hand, one core::
+Needs ``perf`` (Linux), ``nm`` and ``objdump`` (binutils) and permission to sample one's own process. Run by hand, one core::
 
     taskset -c 0 python benchmarks/profile_loop.py --n 10000 --eta 0.01 --neighbours cells
     taskset -c 0 python benchmarks/profile_loop.py --n 10000 --eta 0.05 --neighbours cells --emdstar --annotate relocation_scan
@@ -114,8 +114,9 @@ def main():
     ap.add_argument("--annotate", default=None, help="also the hottest instructions of this function (part of its name)")
     ap.add_argument("--out", default="perf-edmd.data")
     args = ap.parse_args()
-    if shutil.which("perf") is None:
-        raise SystemExit("profile_loop.py needs perf (linux-tools); it is not installed")
+    for tool in ("perf", "nm") + (("objdump",) if args.annotate else ()):
+        if shutil.which(tool) is None:
+            raise SystemExit(f"profile_loop.py needs {tool} (perf: linux-tools; nm, objdump: binutils); it is not installed")
     sim = make_case(args.n, args.eta, args.neighbours, args.walls, args.dim, args.emdstar, args.replicate)
     sim.engine.resync()  # (compiled at the first resync: not while sampling)
     sim.state  # (the snapshot)
