@@ -52,7 +52,7 @@ def compiled_functions() -> dict[int, tuple[int, str]]:
                 f.write(code)
                 f.flush()
                 table = subprocess.run(["nm", "-S", "--defined-only", f.name], capture_output=True, text=True).stdout
-            main = cres.fndesc.llvm_func_name
+            entry = cres.fndesc.llvm_func_name
             for line in table.splitlines():
                 parts = line.split()
                 if len(parts) != 4 or parts[2] not in "tT":
@@ -61,7 +61,7 @@ def compiled_functions() -> dict[int, tuple[int, str]]:
                 address = lib.get_pointer_to_function(name)
                 if address and size:
                     readable = f"{obj.py_func.__module__}.{obj.py_func.__qualname__}"
-                    found[address] = (size, readable if name == main else f"{readable} [{'wrapper' if 'cpython' in name else 'cfunc'}]")
+                    found[address] = (size, readable if name == entry else f"{readable} [{'wrapper' if 'cpython' in name else 'cfunc'}]")
     return found
 
 

@@ -538,13 +538,12 @@ def ignored_keys(cfg: Config) -> list[str]:
         notes += [f"system.{k}: used by init = 'compress' only" for k in _given(s, ["compress_rate"])]
     if not w.axes:
         notes += [f"walls.{k}: no walls (walls.axes is empty)" for k in _given(w, ["e_n", "beta", "e_t", "mu", "viscoelastic"])]
-    if i.kind == "edmd":
-        notes += [f"integrator.{k}: used by integrator.kind = 'dem' only" for k in _given(i, ["dt", "steps_per_contact", "impact_speed", "skin"])]
-    else:
-        notes += [f"engine.{k}: the DEM has no event engine (its neighbour-list skin is integrator.skin)" for k in _given(e, EngineConfig.model_fields)]
-    if i.kind == "edmd" and e.neighbours == "list":
+    if i.kind == "dem":
+        return notes + [f"engine.{k}: the DEM has no event engine (its neighbour-list skin is integrator.skin)" for k in _given(e, EngineConfig.model_fields)]
+    notes += [f"integrator.{k}: used by integrator.kind = 'dem' only" for k in _given(i, ["dt", "steps_per_contact", "impact_speed", "skin"])]
+    if e.neighbours == "list":
         notes += [f"engine.{k}: used by neighbours = 'cells' only" for k in _given(e, ["cell_size"])]
-    if i.kind == "edmd" and e.neighbours != "auto":
+    if e.neighbours != "auto":
         notes += [f"engine.{k}: chooses between lists and cells for neighbours = 'auto' only" for k in _given(e, ["auto_threshold"])]
     return notes
 
