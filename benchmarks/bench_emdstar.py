@@ -15,13 +15,17 @@ relative to it. Compilation excluded (one warm-up run each); medians of ``--repe
 Results with machine information go to ``results/emdstar.json``. ``--friction MU`` gives every
 contact Hertz-Mindlin friction with that coefficient (eMD*: the frictional two-body solver per
 contact; DEM: the same laws; spins at the same temperature as the translation at the start),
-results in ``results/emdstar_friction.json``.
+results in ``results/emdstar_friction.json``; ``--friction-table`` takes the tangential impulse
+from the hard-limit table instead (docs/physics.md §4.12). ``--young Y`` sets a harder or softer
+material with the same restitution (A scaled as Y^(-2/5), so the damping at a given speed is
+the same; the softness Lambda scales as Y^(-2/5), the contact duration too).
 
 Usage::
 
     python benchmarks/bench_emdstar.py
     python benchmarks/bench_emdstar.py --n 4000 --eta 0.01 0.05 --repeats 1
     python benchmarks/bench_emdstar.py --friction 0.3 --eta 0.05 --out benchmarks/results/emdstar_friction.json
+    python benchmarks/bench_emdstar.py --friction 0.3 --friction-table --young 1e9 --eta 0.05 --n 4000
 """
 
 from __future__ import annotations
@@ -36,7 +40,11 @@ import edmd
 from edmd.physics.emdstar import EMDStar
 
 RADIUS, DENSITY = 1e-3, 2500.0
-CONTACT = edmd.Hertz(young=1e8, poisson=0.3, A=1e-6)
+
+
+def contact_law(young: float = 1e8) -> edmd.Hertz:
+    """The benchmark's material (Y = 1e8 Pa, A = 1e-6 s), or one of Young's modulus ``young`` with the same e_n(v)."""
+    return edmd.Hertz(young=young, poisson=0.3, A=1e-6 * (young / 1e8) ** -0.4)
 
 
 def gas(n: int, eta: float, spin: bool = False) -> edmd.State:
@@ -57,9 +65,10 @@ def timed(make, t_end: float, repeats: int) -> tuple[float, object]:
     return statistics.median(times), sim
 
 
-def bench(n: int, eta: float, repeats: int, friction=None) -> dict:
+def bench(n: int, eta: float, repeats: int, friction=None, table: bool = False, young: float = 1e8) -> dict:
     state = gas(n, eta, spin=friction is not None)
-    rule = EMDStar(CONTACT, friction=friction)
+    contact = contact_law(young)
+    rule = EMDStar(contact, friction=friction, friction_table=table)
     probe = edmd.Simulation(state, collision=rule)
     probe.run(max_events=20 * n)
     rate = 2.0 * probe.collisions / (n * probe.time)  # collisions per particle and second
@@ -70,6 +79,8 @@ def bench(n: int, eta: float, repeats: int, friction=None) -> dict:
         "n": n,
         "eta": eta,
         "friction_mu": None if friction is None else friction.mu,
+        "friction_table": table,
+        "young": young,
         "physical_time_s": t_end,
         "collisions_per_particle": 2.0 * emd.collisions / n,
         "emd_seconds": emd_s,
@@ -81,7 +92,7 @@ def bench(n: int, eta: float, repeats: int, friction=None) -> dict:
     }
     row["emd_rate_relative_to_hard_spheres"] = row["emd_collisions_per_second"] / row["hard_sphere_collisions_per_second"]
     for spc in (50, 400):
-        dem_s, dem = timed(lambda: edmd.DEMSimulation(state, CONTACT, steps_per_contact=spc, friction=friction), t_end, 1)
+        dem_s, dem = timed(lambda: edmd.DEMSimulation(state, contact, steps_per_contact=spc, friction=friction), t_end, 1)
         row[f"dem{spc}_seconds"] = dem_s
         row[f"dem{spc}_steps"] = dem.steps
         row[f"speedup_vs_dem{spc}"] = dem_s / emd_s
@@ -99,10 +110,14 @@ def main():
     parser.add_argument("--eta", type=float, nargs="+", default=[0.01, 0.05, 0.1])
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--friction", type=float, default=None, metavar="MU", help="Hertz-Mindlin friction with this coefficient")
+    parser.add_argument("--friction-table", action="store_true", help="frictional contacts from the hard-limit table (docs/physics.md 4.12)")
+    parser.add_argument("--young", type=float, default=1e8, help="Young's modulus in Pa (A scaled to keep e_n(v))")
     parser.add_argument("--out", default="benchmarks/results/emdstar.json")
     args = parser.parse_args()
+    if args.friction_table and args.friction is None:
+        parser.error("--friction-table needs --friction MU")
     friction = None if args.friction is None else edmd.Friction(mu=args.friction, law="mindlin")
-    results = [bench(args.n, eta, args.repeats, friction) for eta in args.eta]
+    results = [bench(args.n, eta, args.repeats, friction, args.friction_table, args.young) for eta in args.eta]
     write_results(args.out, args, results)
 
 

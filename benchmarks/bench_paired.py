@@ -36,12 +36,12 @@ def make_case(n: int, eta: float, neighbours: str, walls: bool, dim: int, emdsta
 
     periodic = [True] * (dim - 1) + [not walls]
     if emdstar:  # the viscoelastic gas of bench_emdstar.py (SI units)
-        from bench_emdstar import CONTACT, DENSITY, RADIUS
+        from bench_emdstar import DENSITY, RADIUS, contact_law
         from edmd.physics.emdstar import EMDStar
 
         state = edmd.random_packing(n, eta, dim=dim, radius=RADIUS, density=DENSITY, seed=1, periodic=periodic)
         state = edmd.maxwell_boltzmann(state, float(state.mass[0]) / 3.0, seed=2)
-        sim = edmd.Simulation(state, collision=EMDStar(CONTACT), engine={"neighbours": neighbours})
+        sim = edmd.Simulation(state, collision=EMDStar(contact_law()), engine={"neighbours": neighbours})
     else:
         start = edmd.random_packing(n // replicate**dim, eta, dim=dim, seed=1, periodic=periodic)
         state = edmd.maxwell_boltzmann(edmd.replicate(start, [replicate] * dim) if replicate > 1 else start, 1.0, seed=2)

@@ -261,6 +261,29 @@ def test_config_frictional_emdstar(dim):
         parse_config(BASE.format(dim=dim, kind="edmd") + EMD + "[friction]\nmu = 0.3\nstiffness = 1e3\n")
 
 
+@pytest.mark.parametrize("dim", DIMS)
+def test_config_friction_table(dim, tmp_path):
+    """``collision.friction_table``: the hard-limit table of frictional eMD* (docs/physics.md §4.12),
+    from a config file and the CLI; it needs ``[friction]`` and a pairing the table covers."""
+    from typer.testing import CliRunner
+
+    from edmd.app.cli import app
+
+    text = BASE.format(dim=dim, kind="edmd") + EMD + 'friction_table = true\n[friction]\nmu = 0.3\nlaw = "mindlin"\n'
+    rule = build_simulation(parse_config(text)).engine.rule
+    assert rule.friction_table and rule.friction == Friction(mu=0.3, law="mindlin")
+    with pytest.raises(ConfigError, match=r"friction_table .* needs a \[friction\] section"):
+        parse_config(BASE.format(dim=dim, kind="edmd") + EMD + "friction_table = true\n")
+    with pytest.raises(ConfigError, match="friction_table covers a dashpot with a linear spring or Hertz with Mindlin"):
+        parse_config(BASE.format(dim=dim, kind="edmd") + EMD + "beta = 0.2\nfriction_table = true\n[friction]\nmu = 0.3\nstiffness = 1e3\n")
+    cfg = tmp_path / "f.toml"
+    cfg.write_text(text.replace("n = 64", "n = 200").replace("packing_fraction = 0.2", "packing_fraction = 0.05").replace("until_time = 0.05", "until_time = 2.0"))
+    res = CliRunner().invoke(app, ["run", str(cfg), "--out", str(tmp_path / "out")])
+    assert res.exit_code == 0, res.output
+    thermo = edmd.read_thermo(tmp_path / "out" / "thermo.csv")
+    assert thermo["temperature_rot"][-1] > 0.0 and thermo["emd_contacts"][-1] > 0  # spins were zero: the contacts spun them up
+
+
 def test_cli_runs_frictional_dem(tmp_path):
     from typer.testing import CliRunner
 

@@ -95,6 +95,8 @@ class EMDStarData(NamedTuple):
     solver: np.ndarray  #: (13, 3) scratch of the direct two-body solver
     work: np.ndarray  #: (11, 3) scratch of the lab-frame update (r1, r2, v1, v2, r1A, r2A, V, D1, D2, spins after a frictional contact)
     friction: np.ndarray  #: scratch of the frictional two-body solver (twobody_friction.SCRATCH_ROWS, N_STATE)
+    friction_table: np.ndarray  #: (n_c, n_s, 2) the hard-limit table of frictional contacts (:mod:`.friction_lookup`)
+    friction_grid: np.ndarray  #: (8,) its geometry (n_c = 0: no table)
 
 
 class Drive(NamedTuple):

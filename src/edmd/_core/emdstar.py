@@ -15,7 +15,9 @@ Pending contacts live in the bundle ``emd`` (:class:`.bundles.EMDStarData`; shor
 * ``values, tg, ctab, cgeo``: the lookup table of the matrix of restitution (:mod:`.lookup`);
 * ``W, K``: scratch of the table lookup and of the direct solver; ``work (11, 3)``: scratch of
   the lab-frame update (rows: ``r1, r2, v1, v2``, then ``r1A, r2A, V, Delta1, Delta2`` and the
-  spins after a frictional contact); ``friction``: scratch of the frictional solver.
+  spins after a frictional contact); ``friction``: scratch of the frictional solver;
+* ``friction_table, friction_grid``: the hard-limit table of frictional contacts
+  (:mod:`.friction_lookup`; no nodes: every frictional contact is solved).
 
 **Frictional contacts** (``ip[IP_EMD_FRICTION]``, docs/physics.md §4.8, §4.11): the A event
 takes the relocation, velocities and increments from the frictional two-body solver, and the
@@ -32,6 +34,7 @@ from . import layout as L
 from .cells import cell_insert, cell_of_point, cell_remove, count_work, walk_around, walk_next
 from .jit import hot, jit, leaf
 from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTACT_SOFT, NB_LIST
+from .friction_lookup import G_NC, tabled_update
 from .lookup import matrix_of_restitution
 from .nblist import SQRT3, rebuild_list
 from .predict import INF, advance, box_shift, contact_time, flight, separation, wrap3
@@ -205,17 +208,26 @@ def frictional_map(i, j, P, mass, omega, inertia, geo, fp, ip, emd):
 
     As :func:`smooth_map`, from the frictional two-body solver
     (:func:`.twobody_friction.frictional_update`), which also fills ``work[9:11]`` with the spins
-    after the contact. Returns ``(t_c, lost, lost_kinetic, v_n, v_t)``: the energy the pair loses
+    after the contact, or, with a hard-limit table in the bundle, from the smooth map and the
+    table (:func:`.friction_lookup.tabled_update`; contacts it does not cover are solved). Returns ``(t_c, lost, lost_kinetic, v_n, v_t)``: the energy the pair loses
     (translation and rotation) and its translational part.
     """
     work = emd.work
     vn, vt = _load_pair(i, j, P, geo, work)
     mi, mj = mass[i], mass[j]
-    tc = frictional_update(
-        ip[L.IP_EMD_MODEL], fp[L.FP_SOFT_A], fp[L.FP_SOFT_B], ip[L.IP_EMD_FRICTION], fp[L.FP_FRICTION_KT], fp[L.FP_FRICTION_XT],
-        fp[L.FP_FRICTION_MU], mi, mj, P[i, L.R], P[j, L.R], inertia[i], inertia[j], work[0], work[1], work[2], work[3], omega[i],
-        omega[j], fp[L.FP_EMD_RTOL], emd.friction, work[4:11],
-    )  # fmt: skip
+    model, ca, cb, law, kt, xt, muf = ip[L.IP_EMD_MODEL], fp[L.FP_SOFT_A], fp[L.FP_SOFT_B], ip[L.IP_EMD_FRICTION], fp[L.FP_FRICTION_KT], fp[L.FP_FRICTION_XT], fp[L.FP_FRICTION_MU]
+    tc = math.nan
+    if emd.friction_grid[G_NC] > 0.0:
+        smooth = (ip[L.IP_EMD_TABLE] != 0, emd.values, emd.table_grid, emd.central, emd.central_grid)
+        tc = tabled_update(
+            model, ca, cb, law, kt, xt, muf, mi, mj, P[i, L.R], P[j, L.R], inertia[i], inertia[j], work[0], work[1], work[2], work[3],
+            omega[i], omega[j], smooth, emd.friction_table, emd.friction_grid, fp[L.FP_EMD_RTOL], emd.weights, emd.solver, work[4:11],
+        )  # fmt: skip
+    if not tc == tc:
+        tc = frictional_update(
+            model, ca, cb, law, kt, xt, muf, mi, mj, P[i, L.R], P[j, L.R], inertia[i], inertia[j], work[0], work[1], work[2], work[3],
+            omega[i], omega[j], fp[L.FP_EMD_RTOL], emd.friction, work[4:11],
+        )  # fmt: skip
     if not tc == tc:
         return math.nan, 0.0, 0.0, vn, vt
     # V is unchanged, so the kinetic energy lost is the relative motion's, mu/2 (|g|^2 - |g'|^2)

@@ -150,8 +150,9 @@ class CollisionConfig(_Section):
     ``"emdstar"`` (soft spheres, :class:`edmd.physics.emdstar.EMDStar`): ``contact = "hertz"`` with
     ``young``, ``poisson``, ``A`` or ``contact = "dashpot"`` with ``k`` and ``gamma`` (or ``e_n``
     for two particles of the mean mass), ``tables`` and ``communication``; with a ``[friction]``
-    section the contacts are frictional, and ``beta`` sets the sticking restitution of the
-    instantaneous fallback (default from the laws).
+    section the contacts are frictional, ``beta`` sets the sticking restitution of the
+    instantaneous fallback (default from the laws) and ``friction_table`` takes the tangential
+    impulse from the hard-limit table instead of solving each contact.
     """
 
     rule: Literal["elastic", "inelastic", "rough", "viscoelastic", "emdstar"] = "elastic"
@@ -168,10 +169,11 @@ class CollisionConfig(_Section):
     gamma: float | None = Field(None, ge=0, description="emdstar dashpot: damping constant")
     tables: str | None = Field(None, description="emdstar: 'default', 'exact' or a table file")
     communication: bool | None = Field(None, description="emdstar: post-collisional communication (default true)")
+    friction_table: bool | None = Field(None, description="emdstar with [friction]: the tangential impulse from the hard-limit table (default false)")
 
     @model_validator(mode="after")
     def _consistent(self):
-        emd_keys = [k for k in ("contact", "k", "gamma", "tables", "communication") if getattr(self, k) is not None]
+        emd_keys = [k for k in ("contact", "k", "gamma", "tables", "communication", "friction_table") if getattr(self, k) is not None]
         if self.rule == "emdstar":
             return self._emdstar_consistent()
         if emd_keys:
@@ -217,7 +219,8 @@ class CollisionConfig(_Section):
         if self.rule == "emdstar":
             from ..physics.emdstar import EMDStar
 
-            extra = {k: v for k, v in (("tables", self.tables), ("communication", self.communication), ("fallback_beta", self.beta)) if v is not None}
+            given = (("tables", self.tables), ("communication", self.communication), ("fallback_beta", self.beta), ("friction_table", self.friction_table))
+            extra = {k: v for k, v in given if v is not None}
             return EMDStar(self.soft_contact(mass), friction=friction, **extra)
         if self.rule == "elastic":
             rule = collide.Inelastic(1.0)
@@ -494,6 +497,8 @@ class Config(_Section):
             raise ValueError("friction.law = 'linear' needs friction.stiffness (the tangential spring constant k_t)")
         if self.collision.rule == "emdstar" and self.collision.beta is not None and self.friction is None:
             raise ValueError("collision.beta of rule 'emdstar' is the sticking restitution of frictional contacts: it needs a [friction] section")
+        if self.collision.friction_table and self.friction is None:
+            raise ValueError("collision.friction_table is the tangential map of frictional contacts: it needs a [friction] section")
         if self.collision.rule == "emdstar" and self.friction is not None:
             from ..physics.emdstar import STICKING_PAIRINGS, TABLE_CHOICES
 
@@ -502,8 +507,10 @@ class Config(_Section):
                 raise ValueError(f"a {pairing[1]} spring with a {pairing[0]} contact has no sticking restitution of its own: give collision.beta (the fallback's beta_0)")
             if pairing == ("dashpot", "mindlin") and self.friction.damping > 0.0:
                 raise ValueError("friction.damping > 0 with law = 'mindlin' on a dashpot contact cannot be solved by eMD* (Mindlin's stiffness vanishes at the touch): use damping = 0 or law = 'linear'")
-            if self.collision.tables not in (None, *TABLE_CHOICES):
-                raise ValueError("collision.tables: frictional contacts are solved directly (no table covers friction)")
+            if self.collision.friction_table and pairing not in STICKING_PAIRINGS:
+                raise ValueError(f"collision.friction_table covers a dashpot with a linear spring or Hertz with Mindlin, not a {pairing[1]} spring with a {pairing[0]} contact")
+            if self.collision.tables not in (None, *TABLE_CHOICES) and not self.collision.friction_table:
+                raise ValueError("collision.tables: frictional contacts are solved directly (a table file needs friction_table = true)")
         return self
 
 
@@ -704,6 +711,8 @@ rule = "elastic"          # "inelastic" (e_n), "rough" (e_n, beta or e_t = -beta
 # communication = true    # emdstar: exception b) also ends the former partner's pending contact
 #                         # emdstar with a [friction] section: frictional contacts with spins (beta: the
 #                         #   sticking restitution of the instantaneous fallback; default from the laws)
+# friction_table = false  # emdstar with [friction]: tangential impulse from the hard-limit table (~100x
+#                         #   cheaper per contact; first order in the softness, docs/physics.md 4.12)
 
 [walls]
 axes = []                 # axes closed by hard walls at +-L/2, e.g. ["z"]; the others are periodic

@@ -421,7 +421,7 @@ class Engine:
         for k in range(self.dim):
             image[:, k] = state.image[order, k]
         self.part = Particles(P, state.mass[order], *self._spins(state, order), image, np.zeros(n, np.int32), self._tc_times(state, order))
-        self.emd = emd_bundle(n if self.emd_rule is not None else 0, self.emd_rule, pending)
+        self.emd = emd_bundle(n if self.emd_rule is not None else 0, self.emd_rule, pending, self.dim)
         self.ev = new_events(n)
         self.pairs = new_pairs(n, captures)
         self._derive_captures = self.well is not None and state.captured_pairs is None
