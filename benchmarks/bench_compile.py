@@ -45,6 +45,13 @@ JOBS = {
     "s = edmd.maxwell_boltzmann(edmd.random_packing(500, 0.05, seed=1), 1.0, seed=2, spin=True)\n"
     "rule = EMDStar(Hertz(young=1e5, poisson=0.3, A=1e-3), friction=edmd.Friction(mu=0.3, law='mindlin'))\n"
     "edmd.Simulation(s, collision=rule).run(max_events=1000)\n",
+    # the same with the hard-limit table of frictional contacts (its build included)
+    "emdstar_friction_table": "import edmd\n"
+    "from edmd.physics.contact import Hertz\n"
+    "from edmd.physics.emdstar import EMDStar\n"
+    "s = edmd.maxwell_boltzmann(edmd.random_packing(500, 0.05, seed=1), 1.0, seed=2, spin=True)\n"
+    "rule = EMDStar(Hertz(young=1e5, poisson=0.3, A=1e-3), friction=edmd.Friction(mu=0.3, law='mindlin'), friction_table=True)\n"
+    "edmd.Simulation(s, collision=rule).run(max_events=1000)\n",
     # Lees-Edwards shear (the sliding-image hooks of the loop), inelastic, cells
     "shear": "import edmd\n"
     "shear = edmd.Shear(0.5)\n"

@@ -43,7 +43,8 @@ def _current(state):
 
 def _features(dim):
     """Runs with every kind of velocity change the core books: collisions of every rule, walls,
-    gravity, the heat bath, white noise, square wells, growth and eMD* (smooth and frictional)."""
+    gravity, the heat bath, white noise, square wells, growth and eMD* (smooth, frictional, and
+    frictional from the hard-limit table)."""
     closed = [True] * (dim - 1) + [False]
     g = np.zeros(dim)
     g[-1] = -0.5
@@ -58,6 +59,10 @@ def _features(dim):
         "emdstar_friction": (
             edmd.maxwell_boltzmann(edmd.random_packing(256, 0.3, dim=dim, seed=1), 1.0, seed=2, spin=True),
             {"collision": EMDStar(Hertz(young=2e3, poisson=0.3, A=2e-3), friction=Friction(mu=0.3, law="mindlin"))},
+        ),
+        "emdstar_friction_table": (
+            edmd.maxwell_boltzmann(edmd.random_packing(256, 0.3, dim=dim, seed=1), 1.0, seed=2, spin=True),
+            {"collision": EMDStar(Hertz(young=2e3, poisson=0.3, A=2e-3), friction=Friction(mu=0.3, law="mindlin"), friction_table=True)},
         ),
     }
 
