@@ -209,13 +209,15 @@ def frictional_map(i, j, P, mass, omega, inertia, geo, fp, ip, emd):
     As :func:`smooth_map`, from the frictional two-body solver
     (:func:`.twobody_friction.frictional_update`), which also fills ``work[9:11]`` with the spins
     after the contact, or, with a hard-limit table in the bundle, from the smooth map and the
-    table (:func:`.friction_lookup.tabled_update`; contacts it does not cover are solved). Returns ``(t_c, lost, lost_kinetic, v_n, v_t)``: the energy the pair loses
-    (translation and rotation) and its translational part.
+    table (:func:`.friction_lookup.tabled_update`; contacts it does not cover are solved).
+    Returns ``(t_c, lost, lost_kinetic, v_n, v_t)``: the energy the pair loses (translation and
+    rotation) and its translational part.
     """
     work = emd.work
     vn, vt = _load_pair(i, j, P, geo, work)
     mi, mj = mass[i], mass[j]
-    model, ca, cb, law, kt, xt, muf = ip[L.IP_EMD_MODEL], fp[L.FP_SOFT_A], fp[L.FP_SOFT_B], ip[L.IP_EMD_FRICTION], fp[L.FP_FRICTION_KT], fp[L.FP_FRICTION_XT], fp[L.FP_FRICTION_MU]
+    model, ca, cb = ip[L.IP_EMD_MODEL], fp[L.FP_SOFT_A], fp[L.FP_SOFT_B]
+    law, kt, xt, muf = ip[L.IP_EMD_FRICTION], fp[L.FP_FRICTION_KT], fp[L.FP_FRICTION_XT], fp[L.FP_FRICTION_MU]
     tc = math.nan
     if emd.friction_grid[G_NC] > 0.0:
         smooth = (ip[L.IP_EMD_TABLE] != 0, emd.values, emd.table_grid, emd.central, emd.central_grid)

@@ -252,7 +252,7 @@ def friction_table(contact: ContactModel, friction: Friction, inertia_factor: fl
     hard limit :math:`\Lambda\to0` over the normal damping :math:`c` and the contact-point speed
     :math:`u_0 = |\mathbf v_{c,t}|/v_n` (:mod:`edmd._core.friction_lookup`), for particles with
     :math:`I = qmR^2` (``inertia_factor`` :math:`q`: the inertia sum :math:`K = 1/q` of every pair).
-    Dashpot with a linear spring or Hertz with Mindlin. Built in about a second (8481 solves);
+    Dashpot with a linear spring or Hertz with Mindlin. Built in about two seconds (8481 solves);
     interpolation error (bicubic) in :math:`(1+K)j` per impact speed: median :math:`10^{-8}`,
     99 % below :math:`10^{-5}`, at most :math:`2\times10^{-4}` next to the kinks where the
     stick-slip sequence changes.
