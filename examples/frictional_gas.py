@@ -3,10 +3,12 @@ r"""A cooling gas of frictional soft spheres: eMD*, force-based MD and the const
 Frictional eMD* (docs/physics.md §4.8, §4.11) against the frictional DEM from one state: a dilute
 (packing fraction 0.05) gas of viscoelastic Hertz spheres with Hertz-Mindlin friction
 (:math:`\mu = 0.3`, :math:`e_n \approx 0.9` at the thermal speed, contact duration ~1e-2),
-translational and rotational temperature equal at the start, cools freely. Three runs:
+translational and rotational temperature equal at the start, cools freely. Four runs:
 
 * **MD** (:class:`edmd.DEMSimulation` with :class:`edmd.Friction`, 200 steps per contact);
-* **eMD*** (:class:`~edmd.physics.emdstar.EMDStar` with the same ``friction``);
+* **eMD*** (:class:`~edmd.physics.emdstar.EMDStar` with the same ``friction``), every contact
+  solved, and with the hard-limit table (``friction_table=True``, docs/physics.md §4.12: first
+  order in the softness, here Lambda ~ 3e-3 at the thermal speed);
 * **rough EDMD**, the usual hard-sphere model of frictional grains: instantaneous collisions with
   the same viscoelastic :math:`e_n(v_n)` and one constant tangential restitution
   :math:`\beta`, fitted to the same mean restitution: :math:`\beta = -\langle\mathbf v_c'\cdot\mathbf v_c\rangle/\langle|\mathbf v_c|^2\rangle`
@@ -82,12 +84,13 @@ def main():
     runs = {
         "MD (DEM, 200 steps/contact)": edmd.DEMSimulation(state, CONTACT, steps_per_contact=200, friction=FRICTION),
         "eMD*": edmd.Simulation(state, collision=EMDStar(CONTACT, friction=FRICTION)),
+        "eMD*, hard-limit table": edmd.Simulation(state, collision=EMDStar(CONTACT, friction=FRICTION, friction_table=True)),
         f"rough EDMD, beta = {beta:.3f}": edmd.Simulation(state, collision=edmd.physics.collide.Rough(e_n=CONTACT, beta=beta)),
     }
     data = {name: temperatures(sim, times) for name, sim in runs.items()}
     md = data[next(iter(runs))]
     fig, axes = plt.subplots(1, 3, figsize=(13, 4))
-    for (name, rows), style in zip(data.items(), ("k-", "C1--", "C0:")):
+    for (name, rows), style in zip(data.items(), ("k-", "C1--", "C2-.", "C0:")):
         axes[0].plot(times, rows[:, 0], style, label=name)
         axes[1].plot(times, rows[:, 1], style, label=name)
         axes[2].plot(times, rows[:, 1] / rows[:, 0], style, label=name)
