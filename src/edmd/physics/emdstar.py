@@ -254,7 +254,7 @@ def friction_table(contact: ContactModel, friction: Friction, inertia_factor: fl
     :math:`I = qmR^2` (``inertia_factor`` :math:`q`: the inertia sum :math:`K = 1/q` of every pair).
     Dashpot with a linear spring or Hertz with Mindlin. Built in about two seconds (8481 solves);
     interpolation error (bicubic) in :math:`(1+K)j` per impact speed: median :math:`10^{-8}`,
-    99 % below :math:`10^{-5}`, at most :math:`2\times10^{-4}` next to the kinks where the
+    99 % below :math:`3\times10^{-5}`, at most :math:`5\times10^{-4}` next to the kinks where the
     stick-slip sequence changes.
 
     Example:
