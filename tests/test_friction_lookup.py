@@ -3,6 +3,7 @@ hard-limit solves it interpolates, its analytic limits, the lab-frame map agains
 two-body solver (first order in the softness), conservation, and frictional eMD* runs with it."""
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -13,7 +14,7 @@ from edmd._core import twobody_friction as tf
 from edmd._core.contact import contact_scales
 from edmd._core.twobody import dashpot_central
 from edmd.physics.contact import Hertz, LinearDashpot
-from edmd.physics.emdstar import EMDStar, EMDStarError, friction_table
+from edmd.physics.emdstar import EMDStar, EMDStarError, FrictionTableWarning, friction_table
 from edmd.physics.friction import Friction
 from edmd.physics.tables import default_table
 
@@ -198,3 +199,21 @@ def test_gas_with_the_table_follows_the_solved_gas(dim):
     assert contacts[0] > 1500 and contacts[1] == pytest.approx(contacts[0], rel=0.02)
     assert tabled.temperature() == pytest.approx(solved.temperature(), rel=0.006)
     assert tabled.rotational_temperature() == pytest.approx(solved.rotational_temperature(), rel=0.006)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_contacts_off_the_table_are_named(dim):
+    """A run with the table warns about what the table does not cover (those contacts are solved
+    directly): moments of inertia other than q m R^2, a dashpot damped beyond c = 1."""
+    state = edmd.maxwell_boltzmann(edmd.random_packing(50, 0.05, dim=dim, seed=3), 1.0, seed=4, spin=True)
+    contact, friction = PAIRINGS["dashpot-linear"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        edmd.Simulation(state, collision=EMDStar(contact, friction=friction, friction_table=True))
+    hollow = state.copy()
+    hollow.inertia = 2.0 / 3.0 * hollow.mass * hollow.radius**2
+    with pytest.warns(FrictionTableWarning, match=r"50 of 50 particles have moments of inertia other than"):
+        edmd.Simulation(hollow, collision=EMDStar(contact, friction=friction, friction_table=True))
+    soggy = LinearDashpot(k=1e4, gamma=150.0)  # c = 150 / sqrt(1e4 / 2) = 2.1
+    with pytest.warns(FrictionTableWarning, match=r"damping c = gamma / sqrt\(k mu\) = 2.12 exceeds the table's 1"):
+        edmd.Simulation(state, collision=EMDStar(soggy, friction=friction, friction_table=True))

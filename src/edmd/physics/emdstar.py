@@ -280,6 +280,40 @@ def friction_table(contact: ContactModel, friction: Friction, inertia_factor: fl
     return values, grid
 
 
+class FrictionTableWarning(UserWarning):
+    """Contacts that the hard-limit table does not cover: they are solved directly (exact, slow)."""
+
+
+def friction_table_misses(rule: EMDStar, mass: np.ndarray, radius: np.ndarray, inertia: np.ndarray, dim: int) -> list[str]:
+    r"""What of a system the hard-limit table of ``rule`` does not cover (docs/physics.md §4.12), in words.
+
+    The table holds pairs whose inertia sum is :math:`K = 1/q` (:math:`I = qmR^2` for every
+    particle: :math:`q = 2/5` for spheres, :math:`1/2` for disks) and a dashpot's damping
+    :math:`c = \gamma/\sqrt{k\mu} \le 1` (Hertz contacts with :math:`\delta > 1` already warn,
+    :class:`~edmd.physics.contact.ContactWarning`). Contacts off the table are solved directly.
+
+    Example:
+        >>> import numpy as np
+        >>> from edmd.physics.contact import LinearDashpot
+        >>> from edmd.physics.friction import Friction
+        >>> rule = EMDStar(LinearDashpot(k=7.0), friction=Friction(mu=0.5, stiffness=2.0), friction_table=True)
+        >>> m, R = np.ones(4), np.full(4, 0.5)
+        >>> friction_table_misses(rule, m, R, 0.4 * m * R**2, 3), len(friction_table_misses(rule, m, R, m * R**2, 3))
+        ([], 1)
+    """
+    q = 0.4 if dim == 3 else 0.5
+    misses = []
+    off = ~np.isclose(inertia, q * mass * radius**2, rtol=1e-9, atol=0.0)
+    if off.any():
+        misses.append(f"{int(off.sum())} of {off.size} particles have moments of inertia other than {q} m R^2: their contacts are solved directly")
+    if isinstance(rule.contact, LinearDashpot) and mass.size:
+        m = float(mass.min())  # (the lightest pair is the most damped)
+        c = 2.0 * rule.contact.damping_ratio(m, m)
+        if c > 1.0:
+            misses.append(f"the dashpot's damping c = gamma / sqrt(k mu) = {c:.3g} exceeds the table's 1 (e_n below 0.16): those contacts are solved directly")
+    return misses
+
+
 #: placeholder table arrays of the same types as a real table's (one compiled loop for all runs)
 NO_TABLE = (np.zeros(1), (0.0,) * 16, np.zeros((1, 2)), (0.0, 1.0, 0.0, 0.0))
 #: placeholder hard-limit table (no nodes: every frictional contact is solved directly)
@@ -326,4 +360,4 @@ def emd_bundle(n: int, rule: EMDStar | None, pending=None, dim: int = 3) -> EMDS
     return EMDStarData(*pending, values, tg, ctab, cgeo, *scratch, *tangential)
 
 
-__all__ = ["EMDStar", "EMDStarError", "TABLE_CHOICES", "emd_bundle", "friction_table", "sticking_beta"]
+__all__ = ["EMDStar", "EMDStarError", "FrictionTableWarning", "TABLE_CHOICES", "emd_bundle", "friction_table", "friction_table_misses", "sticking_beta"]

@@ -14,6 +14,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+import warnings
 
 import numpy as np
 from numba import typeof
@@ -31,7 +32,7 @@ from .._core.snapshot import stream_all
 from .._core.nblist import list_reach
 from .._core.wells import capture_by_distance, captured_pairs, load_captured, well_reach
 from ..physics import collide
-from ..physics.emdstar import EMDStar, emd_bundle
+from ..physics.emdstar import EMDStar, FrictionTableWarning, emd_bundle, friction_table_misses
 from .memory import grid_shape
 from .neighbours import cell_edge, local_densities
 from ..state import State, StateError, default_inertia, filled, rescale_temperature
@@ -132,6 +133,9 @@ class Engine:
             self.rule = self.rule.for_dim(self.dim)  # (frictional: the fallback's sticking restitution of spheres or disks)
         self.wall = collide.default_wall(self.rule) if wall is None else wall
         self.emd_rule = self.rule if isinstance(self.rule, EMDStar) else None
+        if self.emd_rule is not None and self.emd_rule.friction_table:
+            for miss in friction_table_misses(self.emd_rule, state.mass, state.radius, state.inertia, self.dim):
+                warnings.warn(f"friction_table: {miss}", FrictionTableWarning, stacklevel=3)
         collide.pack(self.rule, self.wall, self.fp, self.ip)
         self.thermostat = thermostat
         self.forcing = forcing
