@@ -22,13 +22,13 @@ h, n_c, n_s, u_r, k_scaled, K)``; ``n_c = 0``: no table.
 
 import math
 
-from .contact import MODEL_HERTZ, contact_scales
+from .contact import contact_scales
 from .jit import jit, leaf
 from .lookup import matrix_of_restitution
-from .twobody import lab_frame_update
+from .twobody import collision_frame, lab_frame_update
 from .twobody_friction import (
     I_TAU, INFO_AT, N_STATE, P, P_C, P_KAPPA1, P_KAPPA2, P_KT, P_LAM, P_LAMBDA1, P_LAMBDA2, P_LAW, P_MODEL, P_MU, P_XT, ROW_PRM,
-    ROW_STATE, U1, Y, solve_frictional,
+    ROW_STATE, U1, Y, cross, scaled_spring, solve_frictional,
 )  # fmt: skip
 
 #: geometry entries
@@ -134,11 +134,6 @@ def lookup(values, grid, c, u0):
     return j * scale, i_j * scale
 
 
-@leaf
-def _cross(a, b):
-    return a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]
-
-
 @jit
 def tabled_update(model, ca, cb, law, kt, xt, muf, m1, m2, R1, R2, I1, I2, r1, r2, v1, v2, w1, w2, smooth, values, grid, rtol, W, K, out):
     r"""The frictional contact of two spheres touching now, from the smooth matrix of restitution and the hard-limit table.
@@ -169,24 +164,18 @@ def tabled_update(model, ca, cb, law, kt, xt, muf, m1, m2, R1, R2, I1, I2, r1, r
     K_pair = mu * (R1 * R1 / I1 + R2 * R2 / I2)
     if abs(K_pair - grid[G_K]) > MATCH_TOL * grid[G_K]:
         return math.nan
-    n = ((r1[0] - r2[0]) / sigma, (r1[1] - r2[1]) / sigma, (r1[2] - r2[2]) / sigma)
-    g = (v1[0] - v2[0], v1[1] - v2[1], v1[2] - v2[2])
-    vn = -(g[0] * n[0] + g[1] * n[1] + g[2] * n[2])
+    nx, ny, nz, _tx, _ty, _tz, vn, vt = collision_frame(r1, r2, v1, v2)
     c, _lam, ts, ls = contact_scales(model, ca, cb, mu, reff, sigma, vn)
-    k_scaled = kt * ts * ts / mu * (math.sqrt(reff * ls) if law == 2 else 1.0)
-    if abs(k_scaled - grid[G_KT]) > MATCH_TOL * grid[G_KT]:
+    if abs(scaled_spring(law, kt, mu, reff, ts, ls) - grid[G_KT]) > MATCH_TOL * grid[G_KT]:
         return math.nan
-    rim = (R1 * w1[0] + R2 * w2[0], R1 * w1[1] + R2 * w2[1], R1 * w1[2] + R2 * w2[2])
-    rn = _cross(rim, n)
-    vc = (g[0] - rn[0], g[1] - rn[1], g[2] - rn[2])
-    vcn = vc[0] * n[0] + vc[1] * n[1] + vc[2] * n[2]
-    vct = (vc[0] - vcn * n[0], vc[1] - vcn * n[1], vc[2] - vcn * n[2])
+    rx, ry, rz = cross(R1 * w1[0] + R2 * w2[0], R1 * w1[1] + R2 * w2[1], R1 * w1[2] + R2 * w2[2], nx, ny, nz)
+    vc = (v1[0] - v2[0] - rx, v1[1] - v2[1] - ry, v1[2] - v2[2] - rz)
+    vcn = vc[0] * nx + vc[1] * ny + vc[2] * nz
+    vct = (vc[0] - vcn * nx, vc[1] - vcn * ny, vc[2] - vcn * nz)
     speed = math.sqrt(vct[0] * vct[0] + vct[1] * vct[1] + vct[2] * vct[2])
     j, i_rate = lookup(values, grid, c, speed / vn)
     if not j == j:
         return math.nan
-    gt = (g[0] + vn * n[0], g[1] + vn * n[1], g[2] + vn * n[2])
-    vt = math.sqrt(gt[0] * gt[0] + gt[1] * gt[1] + gt[2] * gt[2])
     use_table, tvalues, tg, ctab, cgeo = smooth
     phi, d, tc, eps, _tab = matrix_of_restitution(model, ca, cb, mu, reff, sigma, vn, vt, use_table, tvalues, tg, ctab, cgeo, rtol, W, K)
     if not tc == tc:
@@ -202,9 +191,8 @@ def tabled_update(model, ca, cb, law, kt, xt, muf, m1, m2, R1, R2, I1, I2, r1, r
         out[1, k] -= J[k] / m2 * shift
         out[3, k] += J[k] / m1
         out[4, k] -= J[k] / m2
-    gf = (out[3, 0] - out[4, 0], out[3, 1] - out[4, 1], out[3, 2] - out[4, 2])
-    torque = _cross(arm, J)
-    drift = _cross(J, gf)
+    torque = cross(arm[0], arm[1], arm[2], J[0], J[1], J[2])
+    drift = cross(J[0], J[1], J[2], out[3, 0] - out[4, 0], out[3, 1] - out[4, 1], out[3, 2] - out[4, 2])
     for k in range(3):
         t = (torque[k] + shift * drift[k]) / sigma  # (the spins take what the translation's angular momentum lost)
         out[5, k] = w1[k] - R1 / I1 * t

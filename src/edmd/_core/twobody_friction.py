@@ -80,8 +80,16 @@ _MARGIN = 1e-6
 
 
 @leaf
-def _cross(ax, ay, az, bx, by, bz):
+def cross(ax, ay, az, bx, by, bz):
+    r""":math:`\mathbf a\times\mathbf b` of two vectors given by their components."""
     return ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+
+
+@leaf
+def scaled_spring(law, kt, mu, reff, ts, ls):
+    r"""The scaled tangential spring of a pair (physics.md §4.11): :math:`\tilde k = k_tt_s^2/\mu` (linear) or
+    :math:`k_{t0}\sqrt{R_{\rm eff}\ell_s}\,t_s^2/\mu` (Mindlin, ``law`` 2; times :math:`\sqrt X` in the equations)."""
+    return kt * ts * ts / mu * (math.sqrt(reff * ls) if law == 2 else 1.0)
 
 
 @leaf
@@ -130,7 +138,7 @@ def _kinematics(prm, s):
     wx = f1 * s[U1] + f2 * s[U2]
     wy = f1 * s[U1 + 1] + f2 * s[U2 + 1]
     wz = f1 * s[U1 + 2] + f2 * s[U2 + 2]
-    cx, cy, cz = _cross(wx, wy, wz, nx, ny, nz)
+    cx, cy, cz = cross(wx, wy, wz, nx, ny, nz)
     vcx, vcy, vcz = s[P] - cx, s[P + 1] - cy, s[P + 2] - cz
     vcn = vcx * nx + vcy * ny + vcz * nz
     kk, krate = _spring(int(prm[P_LAW]), prm[P_KT], X, V)
@@ -173,7 +181,7 @@ def rhs(prm, mode, s, ds):
         ftx, fty, ftz = lim * sx, lim * sy, lim * sz
     # translational and rotational accelerations
     dpx, dpy, dpz = fn * nx + ftx, fn * ny + fty, fn * nz + ftz
-    tx, ty, tz = _cross(nx, ny, nz, ftx, fty, ftz)
+    tx, ty, tz = cross(nx, ny, nz, ftx, fty, ftz)
     k1, k2 = prm[P_KAPPA1] * f1, prm[P_KAPPA2] * f2
     ds[Y], ds[Y + 1], ds[Y + 2] = px, py, pz
     ds[P], ds[P + 1], ds[P + 2] = dpx, dpy, dpz
@@ -195,8 +203,8 @@ def rhs(prm, mode, s, ds):
     dwx = prm[P_LAMBDA1] * df * s[U1] + f1 * ds[U1] + prm[P_LAMBDA2] * df * s[U2] + f2 * ds[U2]
     dwy = prm[P_LAMBDA1] * df * s[U1 + 1] + f1 * ds[U1 + 1] + prm[P_LAMBDA2] * df * s[U2 + 1] + f2 * ds[U2 + 1]
     dwz = prm[P_LAMBDA1] * df * s[U1 + 2] + f1 * ds[U1 + 2] + prm[P_LAMBDA2] * df * s[U2 + 2] + f2 * ds[U2 + 2]
-    ax1, ay1, az1 = _cross(dwx, dwy, dwz, nx, ny, nz)
-    ax2, ay2, az2 = _cross(wx, wy, wz, dnx, dny, dnz)
+    ax1, ay1, az1 = cross(dwx, dwy, dwz, nx, ny, nz)
+    ax2, ay2, az2 = cross(wx, wy, wz, dnx, dny, dnz)
     dvcx, dvcy, dvcz = dpx - ax1 - ax2, dpy - ay1 - ay2, dpz - az1 - az2
     dvcn = dvcx * nx + dvcy * ny + dvcz * nz + vcx * dnx + vcy * dny + vcz * dnz
     dvx = dvcx - dvcn * nx - vcn * dnx
@@ -583,7 +591,7 @@ def frictional_update(model, ca, cb, law, kt, xt, muf, m1, m2, R1, R2, I1, I2, r
     scaled state and ``F[ROW_PRM, INFO_AT:]`` the solver's ``info``.
     """
     ex, ey, ez, fx, fy, fz, vn, _vt = collision_frame(r1, r2, v1, v2)
-    hx, hy, hz = _cross(ex, ey, ez, fx, fy, fz)
+    hx, hy, hz = cross(ex, ey, ez, fx, fy, fz)
     M = m1 + m2
     mu = m1 * m2 / M
     sigma = R1 + R2
@@ -591,7 +599,7 @@ def frictional_update(model, ca, cb, law, kt, xt, muf, m1, m2, R1, R2, I1, I2, r
     c, lam, ts, ls = contact_scales(model, ca, cb, mu, reff, sigma, vn)
     prm, s, info = F[ROW_PRM, :INFO_AT], F[ROW_STATE], F[ROW_PRM, INFO_AT : INFO_AT + 4]
     prm[P_MODEL], prm[P_C], prm[P_LAM], prm[P_LAW] = model, c, lam, law
-    prm[P_KT] = kt * ts * ts / mu * (math.sqrt(reff * ls) if law == 2 else 1.0)
+    prm[P_KT] = scaled_spring(law, kt, mu, reff, ts, ls)
     prm[P_XT], prm[P_MU] = xt, muf
     prm[P_KAPPA1], prm[P_KAPPA2] = mu * R1 * R1 / I1, mu * R2 * R2 / I2
     prm[P_LAMBDA1], prm[P_LAMBDA2] = sigma / (2.0 * R1), sigma / (2.0 * R2)

@@ -240,8 +240,10 @@ def _friction_scratch() -> np.ndarray:
     return np.zeros((_tf.SCRATCH_ROWS, _tf.N_STATE))
 
 
-#: the hard-limit table's nodes: damping (c for the dashpot, sqrt(c) for Hertz, both on [0, 1]) x contact-point speed
+#: the hard-limit table's nodes: damping (c for the dashpot, sqrt(c) for Hertz) x contact-point speed
 FRICTION_TABLE_SHAPE = (33, 257)
+#: the largest damping c the hard-limit table holds (its damping axis spans [0, 1] in c or sqrt(c))
+FRICTION_TABLE_MAX_DAMPING = 1.0
 
 
 @functools.lru_cache(maxsize=8)
@@ -271,7 +273,9 @@ def friction_table(contact: ContactModel, friction: Friction, inertia_factor: fl
     K = 1.0 / inertia_factor
     n_c, n_s = FRICTION_TABLE_SHAPE
     mu = friction.mu
-    grid = np.array([float(isinstance(contact, Hertz)), 0.0, 1.0 / (n_c - 1), n_c, n_s, 2.0 * mu * (1.0 + K) if math.isfinite(mu) else 1.0,
+    hertz = isinstance(contact, Hertz)
+    top = math.sqrt(FRICTION_TABLE_MAX_DAMPING) if hertz else FRICTION_TABLE_MAX_DAMPING
+    grid = np.array([float(hertz), 0.0, top / (n_c - 1), n_c, n_s, 2.0 * mu * (1.0 + K) if math.isfinite(mu) else 1.0,
                      _scaled_spring(contact, friction), K])  # fmt: skip
     values = np.zeros((n_c, n_s, 2))
     failed = _fl.build(contact.code, friction.code, grid, friction.damping, mu, 1e-10, values, _friction_scratch())
@@ -309,8 +313,11 @@ def friction_table_misses(rule: EMDStar, mass: np.ndarray, radius: np.ndarray, i
     if isinstance(rule.contact, LinearDashpot) and mass.size:
         m = float(mass.min())  # (the lightest pair is the most damped)
         c = 2.0 * rule.contact.damping_ratio(m, m)
-        if c > 1.0:
-            misses.append(f"the dashpot's damping c = gamma / sqrt(k mu) = {c:.3g} exceeds the table's 1 (e_n below 0.16): those contacts are solved directly")
+        if c > FRICTION_TABLE_MAX_DAMPING:
+            misses.append(
+                f"the dashpot's damping c = gamma / sqrt(k mu) = {c:.3g} exceeds the table's {FRICTION_TABLE_MAX_DAMPING:g} (e_n below 0.16): "
+                "those contacts are solved directly"
+            )
     return misses
 
 
