@@ -22,7 +22,7 @@ import numpy as np
 
 from .jit import jit, leaf
 
-from .cells import NOT_ACROSS, cell_insert, cell_of_point, cell_remove, count_work, walk_cells, walk_next
+from .cells import GF_RMAX, GF_RMIN, NOT_ACROSS, cell_insert, cell_of_point, cell_remove, count_work, prefetch_firsts, walk_cells, walk_next
 from .images import listing_distance2
 from .layout import FP_LIST_MARGIN, G_GX, G_GY, G_GZ, G_ON, R, X, Y, Z
 from .predict import INF, flight, gap_time, sphere_exit_time, wrap3
@@ -41,34 +41,72 @@ def _drop(nbl, nbl_n, owner, i):
 
 
 @leaf
-def _link_neighbours(i, P, grid, lists, geo, skin, reach, cbuf, only_higher):
+def _found_again(nbl, i, kept, j):
+    """Whether ``j`` is one of the first ``kept`` entries of ``i``'s list, the old neighbours
+    stored as ``~k`` during a rebuild (:func:`rebuild_list`); if so it is restored as ``j``."""
+    for s in range(kept):
+        if nbl[i, s] == ~j:
+            nbl[i, s] = j
+            return True
+    return False
+
+
+@leaf
+def _forget_departed(nbl, nbl_n, i):
+    """Drop ``i`` from the lists of its old neighbours not found again (the entries ``~k`` of its
+    list) and close the gaps in its own list."""
+    s = 0
+    while s < nbl_n[i]:
+        k = nbl[i, s]
+        if k < 0:
+            _drop(nbl, nbl_n, ~k, i)
+            last = nbl_n[i] - 1
+            nbl[i, s] = nbl[i, last]
+            nbl_n[i] = last
+        else:
+            s += 1
+
+
+@leaf
+def _link_neighbours(i, P, grid, lists, geo, skin, reach, cbuf, only_higher, kept):
     """Add every ``j`` whose centre is within ``reach * sigma_ij + skin`` of ``c_i`` to both lists
     (``reach``: 1, or a square well's :math:`\\lambda`: its edge is the interaction range).
 
-    With ``only_higher`` only ``j > i`` is considered (initial build, each pair once).
+    With ``only_higher`` only ``j > i`` is considered (initial build, each pair once). The first
+    ``kept`` entries of ``i``'s list are its old neighbours as ``~k`` (a rebuild): one found again
+    is restored in place, and its own list, which still holds ``i``, is not touched.
     Returns ``False`` when a list is full.
     """
     nbl, nbl_n, centre = lists
     cap = nbl.shape[1]
     cx, cy, cz = centre[i, 0], centre[i, 1], centre[i, 2]
     ri = reach * P[i, R] + skin  # (reach 1.0: exactly the sums of hard spheres)
+    # a candidate's radius (its row: far in memory at large N) is read only between the bounds
+    # of the radii: beyond the largest no partner is listed, within the smallest every one
+    near, far = ri + reach * grid.size[GF_RMIN], ri + reach * grid.size[GF_RMAX]
     nc, s, j = walk_cells(grid, grid.cell[i], geo, cbuf, np.int64(-1), np.int64(0), 0.0, NOT_ACROSS)
+    prefetch_firsts(grid, cbuf, nc, s, centre)
     tested = 0
     while j >= 0:
         if j != i and (j > i or not only_higher):
             tested += 1
-            lim = ri + reach * P[j, R]
-            if listing_distance2(cx - centre[j, 0], cy - centre[j, 1], cz - centre[j, 2], geo) < lim * lim:
-                ni = nbl_n[i]
-                nj = nbl_n[j]
-                if ni >= cap or nj >= cap:
-                    return False
-                nbl[i, ni] = j
-                nbl_n[i] = ni + 1
-                nbl[j, nj] = i
-                nbl_n[j] = nj + 1
+            d2 = listing_distance2(cx - centre[j, 0], cy - centre[j, 1], cz - centre[j, 2], geo)
+            if d2 < far * far and (d2 < near * near or d2 < (ri + reach * P[j, R]) ** 2):
+                if not _found_again(nbl, i, kept, j):
+                    if nbl_n[i] >= cap and kept > 0:  # (the departed still hold slots: free them)
+                        _forget_departed(nbl, nbl_n, i)
+                        kept = 0
+                    ni = nbl_n[i]
+                    nj = nbl_n[j]
+                    if ni >= cap or nj >= cap:
+                        return False
+                    nbl[i, ni] = j
+                    nbl_n[i] = ni + 1
+                    nbl[j, nj] = i
+                    nbl_n[j] = nj + 1
         nc, s, j = walk_next(grid, cbuf, nc, s, j)
     count_work(grid, nc, tested)
+    _forget_departed(nbl, nbl_n, i)
     return True
 
 
@@ -92,27 +130,35 @@ def place_centre(i, P, grid, lists, geo):
 @jit
 def rebuild_list(i, P, grid, lists, geo, skin, reach, cbuf):
     """Re-centre the neighbour list of ``i`` at its stored position (streamed and wrapped by the caller)."""
-    nbl, nbl_n, centre = lists
-    for s in range(nbl_n[i]):
-        _drop(nbl, nbl_n, nbl[i, s], i)
-    nbl_n[i] = 0
+    nbl, nbl_n = lists.members, lists.size
+    kept = nbl_n[i]
+    for s in range(kept):  # (most stay neighbours: their lists, far in memory, are touched only if not)
+        nbl[i, s] = ~nbl[i, s]
     cell_remove(grid, i)
     place_centre(i, P, grid, lists, geo)
-    return _link_neighbours(i, P, grid, lists, geo, skin, reach, cbuf, False)
+    return _link_neighbours(i, P, grid, lists, geo, skin, reach, cbuf, False, kept)
 
 
 @jit
 def build_lists(P, grid, lists, geo, skin, reach, cbuf):
-    """Build all neighbour lists from scratch, centred at the stored positions."""
+    """Build all neighbour lists from scratch, centred at the stored positions, and record the
+    largest and smallest radius in the grid (``Grid.size[GF_RMAX]``, ``[GF_RMIN]``: the radii
+    change only at loads, each of which builds the lists)."""
     head = grid.head
     head[:] = -1
     nbl_n = lists.size
     nbl_n[:] = 0
     n = P.shape[0]
+    rmax, rmin = 0.0, INF
+    for i in range(n):
+        rmax = max(rmax, P[i, R])
+        rmin = min(rmin, P[i, R])
+    grid.size[GF_RMAX] = rmax
+    grid.size[GF_RMIN] = rmin
     for i in range(n):
         place_centre(i, P, grid, lists, geo)
     for i in range(n):
-        if not _link_neighbours(i, P, grid, lists, geo, skin, reach, cbuf, True):
+        if not _link_neighbours(i, P, grid, lists, geo, skin, reach, cbuf, True, 0):
             return False
     return True
 

@@ -17,7 +17,7 @@ import numpy as np
 from numba.extending import overload
 
 from . import layout as L
-from .cells import cell_insert, cell_of_point, cell_remove, count_work, crossing_time, face_side, walk_cells, walk_next
+from .cells import cell_insert, cell_of_point, cell_remove, count_work, crossing_time, face_side, prefetch_firsts, walk_cells, walk_next
 from .images import cross_y_face, fold_into_box, sheared, sheared_type
 from .jit import hot, jit, leaf
 from .layout import NB_LIST
@@ -29,10 +29,6 @@ from .wallmotion import vibrating_type, has_wall, is_moving, level_time, ride_ax
 from .walls import moving_wall_time, ride_pair_dt
 from .growth import closer_grow
 from .wells import closer_well, well_reach
-
-
-#: the number of particles from which a cell scan prefetches the rows of the cells' first particles
-PREFETCH_ROWS_FROM = 1 << 16
 
 
 @hot
@@ -73,13 +69,7 @@ def scan_cells(i, t, P, count, ev, grid, geo, cbuf, axis, step):
     """Improve the pair event of ``i`` with the particles of a block of cells (see ``cell_block``)."""
     xi, yi, zi, vxi, vyi, vzi = flight(P, i, t, geo)
     nc, s, j = walk_cells(grid, grid.cell[i], geo, cbuf, axis, step, t, sliding_horizon(i, t, P, grid, geo))
-    if P.shape[0] >= PREFETCH_ROWS_FROM:  # the cells' first rows loading at once (+14 % at N = 1e6,
-        # eta = 0.3; -15 % for small systems, whose rows are in the caches)
-        for k in range(s, nc):
-            h = grid.head[cbuf[k]]
-            if h >= 0:
-                prefetch(P, h)
-                prefetch(grid.link, h)
+    prefetch_firsts(grid, cbuf, nc, s, P)
     best, bj = _closest_in_walk(i, xi, yi, zi, vxi, vyi, vzi, P[i, L.R], P, t, grid, geo, cbuf, nc, s, j, ev.pair_t[i] - t, -1)
     if bj >= 0:
         set_pair(ev, count, i, t + best, bj)
