@@ -15,6 +15,7 @@ Usage (one core)::
 from __future__ import annotations
 
 import argparse
+import atexit
 import importlib
 import shutil
 import statistics
@@ -33,6 +34,7 @@ from bench_hard_spheres import write_results
 def load_cores(trees: list[str]) -> dict[str, object]:
     """``{tree: its _core package}``, each tree's ``_core`` copied into a package of its own."""
     root = Path(tempfile.mkdtemp(prefix="edmd-cores-"))
+    atexit.register(shutil.rmtree, root, ignore_errors=True)
     sys.path.insert(0, str(root))
     cores = {}
     for k, tree in enumerate(trees):
