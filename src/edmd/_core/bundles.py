@@ -57,7 +57,7 @@ class Grid(NamedTuple):
     link: np.ndarray  #: (N,) int32 next particle in the same cell (-1: last)
     cell: np.ndarray  #: (N,) int32 cell of each particle
     shape: np.ndarray  #: (5,) int64 cells per axis, then the work counters (cells.GI_WORK: cells scanned, pairs tested)
-    size: np.ndarray  #: (7,) float64 cell lengths, their inverses, the largest radius (``cells.GF_RMAX``)
+    size: np.ndarray  #: (8,) float64 cell lengths, their inverses, the largest and smallest radius (``cells.GF_RMAX``, ``GF_RMIN``)
 
 
 class Lists(NamedTuple):
