@@ -106,7 +106,8 @@ def _link_neighbours(i, P, grid, lists, geo, skin, reach, cbuf, only_higher, kep
                     nbl_n[j] = nj + 1
         nc, s, j = walk_next(grid, cbuf, nc, s, j)
     count_work(grid, nc, tested)
-    _forget_departed(nbl, nbl_n, i)
+    if kept > 0:  # (a rebuild whose departed still hold slots; an initial build has none)
+        _forget_departed(nbl, nbl_n, i)
     return True
 
 
