@@ -29,10 +29,16 @@ import time
 from bench_hard_spheres import write_results
 
 
-def make_case(n: int, eta: float, neighbours: str, walls: bool, dim: int, emdstar: bool, replicate: int):
+def make_case(n: int, eta: float, neighbours: str, walls: bool, dim: int, emdstar: bool, replicate: int, package=None):
     """The Simulation of a benchmark case (also :mod:`profile_loop`'s), equilibrated for 20 events
-    per particle (which also compiles)."""
+    per particle (which also compiles). ``package``: the edmd build to use (:mod:`bench_same_process`;
+    hard spheres only), else the one imported as ``edmd``."""
     import edmd
+
+    if package is not None:
+        if emdstar:
+            raise ValueError("the eMD* case uses the edmd imported as edmd")
+        edmd = package
 
     periodic = [True] * (dim - 1) + [not walls]
     if emdstar:  # the viscoelastic gas of bench_emdstar.py (SI units)

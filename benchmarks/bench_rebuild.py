@@ -2,8 +2,8 @@
 
 At N = 1e6 a process keeps its speed for life, and two processes of the same code differ by up to
 17 % (benchmarks/README.md, "Large N"): end-to-end pairs need many processes to see a few per
-cent. This isolates the rebuild instead: the ``_core`` of each tree is imported as a package of
-its own (``_core`` has relative imports only), and each replays the same random sequence of shell
+cent. This isolates the rebuild instead: each tree's ``edmd`` is imported as a package of
+its own (:func:`bench_same_process.load_builds`), and each replays the same random sequence of shell
 exits (a particle moved by half the skin, then ``rebuild_list``) on its own copy of one engine's
 arrays, the copies alternating, in one process. Reported: ns per rebuild, best and median.
 
@@ -15,34 +15,15 @@ Usage (one core)::
 from __future__ import annotations
 
 import argparse
-import atexit
-import importlib
-import shutil
 import statistics
-import sys
-import tempfile
 import time
-from pathlib import Path
 
 import numpy as np
 from numba import njit
 
 import edmd
 from bench_hard_spheres import write_results
-
-
-def load_cores(trees: list[str]) -> dict[str, object]:
-    """``{tree: its _core package}``, each tree's ``_core`` copied into a package of its own."""
-    root = Path(tempfile.mkdtemp(prefix="edmd-cores-"))
-    atexit.register(shutil.rmtree, root, ignore_errors=True)
-    sys.path.insert(0, str(root))
-    cores = {}
-    for k, tree in enumerate(trees):
-        name = f"core_{k}"
-        shutil.copytree(Path(tree) / "src" / "edmd" / "_core", root / name, ignore=shutil.ignore_patterns("__pycache__"))
-        importlib.import_module(name + ".nblist")
-        cores[tree] = importlib.import_module(name)
-    return cores
+from bench_same_process import load_builds
 
 
 def make_driver(rebuild_list):
@@ -71,7 +52,7 @@ def main() -> None:
     ap.add_argument("--out", default=None)
     args = ap.parse_args()
 
-    cores = load_cores(args.trees)
+    cores = {tree: build._core for tree, build in zip(args.trees, load_builds(args.trees))}
     state = edmd.replicate(edmd.random_packing(8000, args.eta, seed=1), [args.replicate] * 3)
     sim = edmd.Simulation(edmd.maxwell_boltzmann(state, 1.0, seed=2), engine={"neighbours": "list"})
     sim.run(max_events=5 * state.n)  # (lists that have been rebuilt in a run, not only built)

@@ -33,6 +33,7 @@ import time
 from pathlib import Path
 
 from bench_hard_spheres import write_results
+from bench_paired import make_case
 
 
 def load_builds(trees: list[str]) -> list[object]:
@@ -46,16 +47,6 @@ def load_builds(trees: list[str]) -> list[object]:
         shutil.copytree(Path(tree) / "src" / "edmd", root / name, ignore=shutil.ignore_patterns("__pycache__"))
         builds.append(importlib.import_module(name))
     return builds
-
-
-def make_sim(edmd, n: int, eta: float, neighbours: str, replicate: int):
-    """A relaxed amorphous start of ``n / replicate**3`` spheres tiled ``replicate`` times per axis,
-    equilibrated for 20 events per particle (which also compiles)."""
-    start = edmd.random_packing(n // replicate**3, eta, seed=1)
-    state = edmd.maxwell_boltzmann(edmd.replicate(start, [replicate] * 3) if replicate > 1 else start, 1.0, seed=2)
-    sim = edmd.Simulation(state, engine={"neighbours": neighbours})
-    sim.run(max_events=20 * state.n)
-    return sim
 
 
 def main() -> None:
@@ -75,7 +66,7 @@ def main() -> None:
         combine(args)
         return
     trees = [args.old, args.new] if args.first == "A" else [args.new, args.old]
-    sims = [make_sim(edmd, args.n, args.eta, args.neighbours, args.replicate) for edmd in load_builds(trees)]
+    sims = [make_case(args.n, args.eta, args.neighbours, False, 3, False, args.replicate, package=edmd) for edmd in load_builds(trees)]
     if args.first == "B":
         sims.reverse()  # (sims[0] is A, sims[1] is B, whichever was made first)
     rates = [[], []]
