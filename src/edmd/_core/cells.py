@@ -35,6 +35,8 @@ GI_WORK = 3
 #: indices in ``Grid.size`` of the largest and the smallest radius of the particles whose list
 #: centres are binned
 GF_RMAX, GF_RMIN = 6, 7
+#: no gaps: :func:`cell_block` keeps every neighbour cell
+NO_GAPS = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 #: the number of particles from which a walk prefetches the rows of the cells' first particles
 #: (:func:`prefetch_firsts`)
 PREFETCH_ROWS_FROM = 1 << 16
@@ -159,6 +161,52 @@ def cell_block(grid, c, geo, out, axis, step, t, horizon):
     n = sheared_block(grid, c, geo, out, axis, step, t, horizon)
     if n >= 0:
         return n
+    return _plain_block(grid, c, geo, out, axis, step, NO_GAPS, INF)
+
+
+@leaf
+def near_block(grid, c, geo, out, x, y, z, reach):
+    """The full neighbourhood of cell ``c`` (:func:`cell_block`, ``axis = -1``) less the cells
+    whose nearest point lies farther than ``reach`` from the point ``(x, y, z)`` in ``c``: a
+    neighbour list's candidates (with list cells one reach wide, it drops about 6 of the 27 cells in 3D).
+
+    The gap to the neighbour at offset :math:`o_k \\in \\{-1, 0, 1\\}` on axis :math:`k` is the
+    distance of the point to the lower face of ``c``, 0, or to the upper face; a cell is kept when
+    the squared gaps sum below :math:`\\mathrm{reach}^2 (1 + 10^{-9})` (the margin is far above
+    rounding, so no listed pair is missed). Axes of fewer than 3 cells have no gaps (the
+    neighbours on both sides may be one cell), nor do sheared face cells (:func:`sheared_block`).
+    """
+    n = sheared_block(grid, c, geo, out, np.int64(-1), np.int64(0), 0.0, NOT_ACROSS)
+    if n >= 0:
+        return n
+    gi = grid.shape
+    nz = gi[2]
+    cx, cy, cz = c // (gi[1] * nz), (c // nz) % gi[1], c % nz
+    gaps = (*_face_gaps(grid, geo, 0, cx, x), *_face_gaps(grid, geo, 1, cy, y), *_face_gaps(grid, geo, 2, cz, z))
+    return _plain_block(grid, c, geo, out, np.int64(-1), np.int64(0), gaps, reach * reach * (1.0 + 1e-9))
+
+
+@leaf
+def _face_gaps(grid, geo, k, ck, x):
+    """Squared distances from ``x`` to the lower and the upper face of cell ``ck`` on axis ``k``
+    (0 on an axis of fewer than 3 cells; a point just outside its cell, by rounding, has gap 0)."""
+    if grid.shape[k] < 3:
+        return 0.0, 0.0
+    lower = x - (ck * grid.size[k] - 0.5 * geo[k])
+    upper = grid.size[k] - lower
+    lower, upper = max(lower, 0.0), max(upper, 0.0)
+    return lower * lower, upper * upper
+
+
+@leaf
+def _gap(lower, upper, o):
+    return lower if o < 0 else upper if o > 0 else 0.0
+
+
+@leaf
+def _plain_block(grid, c, geo, out, axis, step, gaps, room):
+    """:func:`cell_block` in an unsheared box, keeping only the cells whose squared gaps
+    (``gaps``: lower and upper per axis, :func:`near_block`) sum below ``room``."""
     nx, ny, nz, cx, cy, cz, lox, hix, loy, hiy, loz, hiz = _block_frame(grid, c, axis, step)
     px, py, pz = geo[3] < INF, geo[4] < INF, geo[5] < INF
     n = 0
@@ -166,11 +214,12 @@ def cell_block(grid, c, geo, out, axis, step, t, horizon):
         x2 = _shift(cx, ox, nx, px)
         if x2 < 0:
             continue
+        gx = _gap(gaps[0], gaps[1], ox)
         for oy in range(loy, hiy + 1):
             y2 = _shift(cy, oy, ny, py)
             if y2 < 0:
                 continue
-            n = _z_column(out, n, x2, y2, cz, loz, hiz, ny, nz, pz)
+            n = _z_column(out, n, x2, y2, cz, loz, hiz, ny, nz, pz, room - gx - _gap(gaps[2], gaps[3], oy), gaps[4], gaps[5])
     return n
 
 
@@ -189,11 +238,12 @@ def _block_frame(grid, c, axis, step):
 
 
 @leaf
-def _z_column(out, n, x2, y2, cz, loz, hiz, ny, nz, pz):
-    """Append the cells ``(x2, y2, cz + oz)`` for ``oz`` in ``[loz, hiz]`` to ``out[n:]``; returns the new count."""
+def _z_column(out, n, x2, y2, cz, loz, hiz, ny, nz, pz, room, lower, upper):
+    """Append the cells ``(x2, y2, cz + oz)`` for ``oz`` in ``[loz, hiz]`` whose squared gap on z
+    (``lower``, 0, ``upper``) is below ``room`` to ``out[n:]``; returns the new count."""
     for oz in range(loz, hiz + 1):
         z2 = _shift(cz, oz, nz, pz)
-        if z2 >= 0:
+        if z2 >= 0 and _gap(lower, upper, oz) < room:
             out[n] = (x2 * ny + y2) * nz + z2
             n += 1
     return n
@@ -243,10 +293,10 @@ def _sheared_block(grid, c, geo, out, axis, step, t, horizon):
             x0, count = _sliding_window(nx, cx, oy > 0, t, INF if ny < 3 else horizon, geo)
             zlo, zhi = _offsets(2, nz, -1, 0)
             for ox in range(count):
-                n = _z_column(out, n, (x0 + ox) % nx, y2, cz, zlo, zhi, ny, nz, pz)
+                n = _z_column(out, n, (x0 + ox) % nx, y2, cz, zlo, zhi, ny, nz, pz, INF, 0.0, 0.0)
         elif loy <= oy and oy <= hiy:
             for ox in range(lox, hix + 1):
-                n = _z_column(out, n, _shift(cx, ox, nx, True), y2, cz, loz, hiz, ny, nz, pz)
+                n = _z_column(out, n, _shift(cx, ox, nx, True), y2, cz, loz, hiz, ny, nz, pz, INF, 0.0, 0.0)
     return n
 
 
@@ -326,7 +376,17 @@ def walk_cells(grid, c, geo, cbuf, axis, step, t, horizon):
 
     ``cbuf`` (27 int32) holds the cells during the walk.
     """
-    nc = cell_block(grid, c, geo, cbuf, axis, step, t, horizon)
+    return _start_walk(grid, cbuf, cell_block(grid, c, geo, cbuf, axis, step, t, horizon))
+
+
+@leaf
+def walk_near(grid, c, geo, cbuf, x, y, z, reach):
+    """:func:`walk_cells` over the cells of :func:`near_block`."""
+    return _start_walk(grid, cbuf, near_block(grid, c, geo, cbuf, x, y, z, reach))
+
+
+@leaf
+def _start_walk(grid, cbuf, nc):
     head = grid.head
     for s in range(nc):  # the cells' heads loading at once (large N: none is in a cache)
         prefetch(head, cbuf[s])

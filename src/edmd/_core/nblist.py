@@ -18,11 +18,10 @@ the centres with cells of edge :math:`\\ge 2\\lambda R_{\\max} + s`.
 
 import math
 
-import numpy as np
 
 from .jit import jit, leaf
 
-from .cells import GF_RMAX, GF_RMIN, NOT_ACROSS, cell_insert, cell_of_point, cell_remove, count_work, prefetch_firsts, walk_cells, walk_next
+from .cells import GF_RMAX, GF_RMIN, cell_insert, cell_of_point, cell_remove, count_work, prefetch_firsts, walk_near, walk_next
 from .images import listing_distance2
 from .layout import FP_LIST_MARGIN, G_GX, G_GY, G_GZ, G_ON, R, X, Y, Z
 from .predict import INF, flight, gap_time, sphere_exit_time, wrap3
@@ -77,14 +76,14 @@ def _link_neighbours(i, P, grid, lists, geo, skin, reach, cbuf, only_higher, kep
     is restored in place, and its own list, which still holds ``i``, is not touched.
     Returns ``False`` when a list is full.
     """
-    nbl, nbl_n, centre = lists
+    nbl, nbl_n, centre = lists.members, lists.size, lists.centre
     cap = nbl.shape[1]
     cx, cy, cz = centre[i, 0], centre[i, 1], centre[i, 2]
     ri = reach * P[i, R] + skin  # (reach 1.0: exactly the sums of hard spheres)
     # a candidate's radius (its row: far in memory at large N) is read only between the bounds
     # of the radii: beyond the largest no partner is listed, within the smallest every one
     near, far = ri + reach * grid.size[GF_RMIN], ri + reach * grid.size[GF_RMAX]
-    nc, s, j = walk_cells(grid, grid.cell[i], geo, cbuf, np.int64(-1), np.int64(0), 0.0, NOT_ACROSS)
+    nc, s, j = walk_near(grid, grid.cell[i], geo, cbuf, cx, cy, cz, far)
     prefetch_firsts(grid, cbuf, nc, s, centre)
     tested = 0
     while j >= 0:
