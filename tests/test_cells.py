@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from edmd._core.cells import cell_block, cells_buffer_size, crossing_time, grid_shape, new_grid
+from edmd._core.cells import cell_block, cells_buffer_size, crossing_time, grid_shape, near_block, new_grid
 from edmd._core.images import image_offset
 from edmd._core.layout import make_geo
 
@@ -39,6 +39,38 @@ def test_cell_block_is_the_full_neighbourhood(nc, periodic):
             else:
                 want.add((q[0] * nc[1] + q[1]) * nc[2] + q[2])
         assert got == sorted(want)
+
+
+@pytest.mark.parametrize("nc, periodic", [((5, 4, 3), (1, 1, 1)), ((4, 4, 1), (1, 1, 0)), ((5, 2, 3), (0, 0, 1))])
+def test_near_block_drops_exactly_the_cells_beyond_reach(nc, periodic):
+    # a rebuild's candidates: of the full neighbourhood, every cell whose nearest point (through
+    # any periodic image) is within reach of a point in c, and none that is beyond reach on the
+    # axes of 3 cells or more alone (an axis of 1 or 2 cells may reach one cell both ways)
+    lengths = np.array([1.5, 1.2, 1.7])
+    box = np.array(nc) * lengths
+    half = np.where(np.array(periodic, bool), 0.5 * box, np.inf)
+    geo = make_geo(box, half)
+    grid = new_grid(1, box, np.array(nc))
+    out = np.empty(27, np.int32)
+    rng = np.random.default_rng(4)
+    dropped = 0
+    for c in range(int(np.prod(nc))):
+        full = out[: cell_block(grid, c, geo, out, -1, 0, 0.0, math.inf)].tolist()
+        lower = np.array(_coords(c, nc)) * lengths - 0.5 * box
+        for _ in range(5):
+            p = lower + rng.uniform(0.0, 1.0, 3) * lengths
+            reach = rng.uniform(0.3, 1.6)
+            kept = out[: near_block(grid, c, geo, out, *p, reach)].tolist()
+            for c2 in full:
+                lo = np.array(_coords(c2, nc)) * lengths - 0.5 * box
+                gap = [min(max(lo[k] + s - p[k], 0.0, p[k] - lo[k] - s - lengths[k]) for s in ((-box[k], 0.0, box[k]) if periodic[k] else (0.0,))) for k in range(3)]
+                if math.hypot(*gap) < reach:
+                    assert c2 in kept, (c, c2, gap, reach)
+                if math.hypot(*(gap[k] for k in range(3) if nc[k] >= 3)) > reach * (1 + 1e-6):
+                    assert c2 not in kept, (c, c2, gap, reach)
+            assert set(kept) <= set(full) and len(set(kept)) == len(kept)
+            dropped += len(full) - len(kept)
+    assert dropped > 0
 
 
 def test_layer_after_crossing_is_the_new_neighbourhood_part():
