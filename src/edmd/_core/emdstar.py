@@ -175,7 +175,7 @@ def _load_pair(i, j, P, geo, work):
     return vn, vt
 
 
-@jit
+@leaf
 def smooth_map(i, j, P, mass, geo, fp, ip, emd):
     r"""The A event of the smooth contact ``(i, j)`` (both streamed to it): relocation, velocities, increments.
 
@@ -239,7 +239,7 @@ def frictional_map(i, j, P, mass, omega, inertia, geo, fp, ip, emd):
     return tc, lost_kinetic + spins, lost_kinetic, vn, vt
 
 
-@jit
+@leaf
 def rebin(p, t, P, image, grid, lists, geo, mode, fp, cbuf):
     """Keep neighbour structures valid after ``p`` jumped (eMD* relocation, physics.md §1.4, §4.8).
 
@@ -293,7 +293,7 @@ def _early_b(p, t, part, acc, emd, geo):
 def _make_emd_contact(frictional):
     """``emd_contact`` for smooth or frictional contacts (a closure constant: a smooth run never compiles the frictional solver)."""
 
-    @jit
+    @leaf
     def emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt, cbuf, emd, bath_t, pairs):
         """A pair ``(i, j)`` (streamed to ``t``) reaches contact under eMD* (physics.md §4.8).
 
