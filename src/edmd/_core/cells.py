@@ -168,7 +168,7 @@ def cell_block(grid, c, geo, out, axis, step, t, horizon):
 def near_block(grid, c, geo, out, x, y, z, reach):
     """The full neighbourhood of cell ``c`` (:func:`cell_block`, ``axis = -1``) less the cells
     whose nearest point lies farther than ``reach`` from the point ``(x, y, z)`` in ``c``: a
-    neighbour list's candidates (with list cells one reach wide, it drops about 6 of the 27 cells in 3D).
+    neighbour list's candidates (with list cells one reach wide, it drops about 7 of the 27 cells in 3D).
 
     The gap to the neighbour at offset :math:`o_k \\in \\{-1, 0, 1\\}` on axis :math:`k` is the
     distance of the point to the lower face of ``c``, 0, or to the upper face; a cell is kept when

@@ -18,7 +18,6 @@ the centres with cells of edge :math:`\\ge 2\\lambda R_{\\max} + s`.
 
 import math
 
-
 from .jit import jit, leaf
 
 from .cells import GF_RMAX, GF_RMIN, cell_insert, cell_of_point, cell_remove, count_work, prefetch_firsts, walk_near, walk_next
