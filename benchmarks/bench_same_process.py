@@ -95,5 +95,6 @@ def combine(args) -> None:
     if args.out:
         write_results(args.out, args, {"orders": orders, "ratio": combined})
 
+
 if __name__ == "__main__":
     main()

@@ -161,7 +161,7 @@ def cell_block(grid, c, geo, out, axis, step, t, horizon):
     n = sheared_block(grid, c, geo, out, axis, step, t, horizon)
     if n >= 0:
         return n
-    return _plain_block(grid, c, geo, out, axis, step, NO_GAPS, INF)
+    return _plain_block(geo, out, _block_frame(grid, c, axis, step), NO_GAPS, INF)
 
 
 @leaf
@@ -179,11 +179,10 @@ def near_block(grid, c, geo, out, x, y, z, reach):
     n = sheared_block(grid, c, geo, out, np.int64(-1), np.int64(0), 0.0, NOT_ACROSS)
     if n >= 0:
         return n
-    gi = grid.shape
-    nz = gi[2]
-    cx, cy, cz = c // (gi[1] * nz), (c // nz) % gi[1], c % nz
+    frame = _block_frame(grid, c, np.int64(-1), np.int64(0))
+    cx, cy, cz = frame[3], frame[4], frame[5]
     gaps = (*_face_gaps(grid, geo, 0, cx, x), *_face_gaps(grid, geo, 1, cy, y), *_face_gaps(grid, geo, 2, cz, z))
-    return _plain_block(grid, c, geo, out, np.int64(-1), np.int64(0), gaps, reach * reach * (1.0 + 1e-9))
+    return _plain_block(geo, out, frame, gaps, reach * reach * (1.0 + 1e-9))
 
 
 @leaf
@@ -204,10 +203,10 @@ def _gap(lower, upper, o):
 
 
 @leaf
-def _plain_block(grid, c, geo, out, axis, step, gaps, room):
-    """:func:`cell_block` in an unsheared box, keeping only the cells whose squared gaps
-    (``gaps``: lower and upper per axis, :func:`near_block`) sum below ``room``."""
-    nx, ny, nz, cx, cy, cz, lox, hix, loy, hiy, loz, hiz = _block_frame(grid, c, axis, step)
+def _plain_block(geo, out, frame, gaps, room):
+    """:func:`cell_block` in an unsheared box (``frame``: :func:`_block_frame`), keeping only the
+    cells whose squared gaps (``gaps``: lower and upper per axis, :func:`near_block`) sum below ``room``."""
+    nx, ny, nz, cx, cy, cz, lox, hix, loy, hiy, loz, hiz = frame
     px, py, pz = geo[3] < INF, geo[4] < INF, geo[5] < INF
     n = 0
     for ox in range(lox, hix + 1):
