@@ -66,3 +66,16 @@ def test_the_cache_folder_follows_numba(monkeypatch, tmp_path):
     monkeypatch.setattr(config, "CACHE_DIR", str(tmp_path / "cache"))
     folder = cache_folder(tmp_path / "pkg")
     assert folder.parent == tmp_path / "cache" and folder.name.startswith("pkg_")
+
+
+def test_the_stamp_is_replaced_whole(tmp_path):
+    # processes importing edmd together (pytest-xdist workers, a sweep's pool) read the stamp
+    # while one of them writes it: a reader must see the old stamp or the new one, never a part
+    cache = _package(tmp_path, SOURCES)
+    guard_cache(tmp_path, cache)
+    stamp = cache / "edmd-core-sources.json"
+    with stamp.open() as reader:  # a reader of the old stamp
+        (tmp_path / "queue.py").write_text("top = 2\n")
+        guard_cache(tmp_path, cache)
+        assert reader.read() != stamp.read_text()  # it still reads the old one whole (not truncated in place)
+    assert [p.name for p in cache.iterdir() if p.suffix not in (".nbi", ".nbc")] == ["edmd-core-sources.json"]  # no leftover

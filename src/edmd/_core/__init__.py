@@ -99,7 +99,9 @@ def guard_cache(package: Path, folder: Path | None = None):
             if before.get(name) != digest:
                 for stale in folder.glob(f"{name}.*.nb[ic]"):
                     stale.unlink(missing_ok=True)
-        stamp.write_text(json.dumps(now, indent=0, sort_keys=True))
+        fresh = stamp.with_name(f"{_STAMP}.{os.getpid()}")  # (whole or not at all: processes importing edmd together read it)
+        fresh.write_text(json.dumps(now, indent=0, sort_keys=True))
+        os.replace(fresh, stamp)
     except OSError:  # a folder we cannot write: Numba cannot cache there either
         pass
 

@@ -18,8 +18,8 @@ from .config import EXAMPLE, ConfigError, default_job, load_config
 from ..state import StateError
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, help="Event-driven molecular dynamics of hard and soft spheres and disks.")
-console = Console()
-err_console = Console(stderr=True)
+console = Console(soft_wrap=True)  # (messages name paths: the terminal wraps them, rich would break them mid-name)
+err_console = Console(stderr=True, soft_wrap=True)
 FRAME_OF_FROM = typer.Option(-1, "--frame", help="Frame of --from (negative counts from the end).")
 
 
