@@ -281,7 +281,7 @@ class EngineConfig(_Section):
 
     neighbours: Literal["auto", "list", "cells"] = "auto"
     skin: float = Field(0.5, gt=0)
-    resync_every: float = Field(50.0, gt=0)
+    resync_every: float = Field(200.0, gt=0)
     events_per_bucket: float = Field(4.0, gt=0)
     cell_size: float | None = Field(None, ge=1, description="cells mode: cell edge in largest contact distances (default: the cost model's)")
     auto_threshold: float | None = Field(None, gt=0, le=1, description='packing fraction from which "auto" takes lists (default: 0.35 spheres, 0.6 disks)')
