@@ -15,3 +15,19 @@ def dim(request):
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)
+
+
+def pytest_xdist_auto_num_workers(config):
+    """Workers of ``-n auto`` (pyproject's addopts): the cores this process may use, at most 4.
+
+    xdist's own count (psutil's physical cores) ignores CPU affinity and a container's CPU quota,
+    and a worker per core of a large host would each compile the loop variants it meets.
+    """
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+    try:
+        quota, period = open("/sys/fs/cgroup/cpu.max").read().split()
+        if quota != "max":
+            cores = min(cores, max(1, int(quota) // int(period)))
+    except (OSError, ValueError):
+        pass
+    return min(cores, 4)
