@@ -31,6 +31,19 @@ def test_init_writes_a_config_that_runs(tmp_path):
     assert r.exit_code == 2 and "exists" in r.output
 
 
+def test_messages_name_long_paths_whole(tmp_path):
+    # a path wider than the terminal (80 columns without one) is printed on one line, so that it
+    # can be copied (and the error names it whole too)
+    deep = tmp_path / ("a_folder_with_a_long_name_" * 4)
+    deep.mkdir()
+    cfg = deep / "edmd.toml"
+    assert len(str(cfg)) > 100
+    r = runner.invoke(app, ["init", str(cfg)])
+    assert r.exit_code == 0 and f"wrote {cfg}" in r.output
+    r = runner.invoke(app, ["init", str(cfg)])
+    assert r.exit_code == 2 and str(cfg) in r.output
+
+
 def test_run_writes_the_run_directory(tmp_path, dim):
     cfg = tmp_path / "c.toml"
     cfg.write_text(SMALL.format(dim=dim))

@@ -51,8 +51,8 @@ class EngineOptions:
             (lists at packing fraction >= ``auto_threshold``, in a box without shear).
         skin: list shell thickness in units of the mean diameter (lists only): pairs whose
             list centres are closer than ``sigma_ij + skin`` are neighbours.
-        resync_every: events between two maintenance resyncs, per particle (each costs about
-            as much as 3 events per particle; benchmarks/README.md, "Resyncs").
+        resync_every: events between two maintenance resyncs, per particle (one costs as much
+            as 2-3 events per particle; benchmarks/README.md, "Resyncs").
         events_per_bucket: target occupation of a calendar bucket.
         auto_threshold: packing fraction above which ``"auto"`` picks lists; ``None``: the
             measured crossover of :data:`AUTO_THRESHOLD` (0.35 for spheres, 0.6 for disks;
