@@ -65,7 +65,9 @@ def test_compression_through_the_freezing_range_crystallises():
     compressed at g = 1e-3 to Z = 1e6: bond order Q6 rises from the fluid's ~0.1 to a crystal's (> 0.38:
     0.40 measured after 120 time units; random stacking of fcc and hcp lies between their 0.485 and
     0.575, defects lower it), and the packing fraction passes far beyond random jamming (0.64) towards
-    close packing 0.7405 (0.7046 measured: a crystal with a grain boundary stops below it)."""
+    close packing 0.7405: a crystal with grain boundaries stops below it. Of eleven realisations (seeds,
+    resync periods), the eight that crystallised while held (Q6 > 0.38) ended at 0.688-0.705, two
+    partly crystallised (Q6 0.35) at 0.685, one still fluid (Q6 0.18) at 0.660."""
     freud = pytest.importorskip("freud")
 
     def q6(state):
@@ -80,4 +82,4 @@ def test_compression_through_the_freezing_range_crystallises():
     assert q6(sim.state) > 0.38, q6(sim.state)
     crystal = edmd.compression(sim.state, pressure=1e6, rate=1e-3, slowdown=())
     assert q6(crystal.state) > 0.38, q6(crystal.state)
-    assert 0.70 < crystal.packing_fraction < 0.7405, crystal.packing_fraction
+    assert 0.68 < crystal.packing_fraction < 0.7405, crystal.packing_fraction
