@@ -4,6 +4,8 @@ import sys
 import numpy as np
 import pytest
 
+from edmd.cores import usable_cores
+
 sys.path.insert(0, os.path.dirname(__file__))
 
 
@@ -20,15 +22,8 @@ def rng():
 def pytest_xdist_auto_num_workers(config):
     """Workers of ``-n auto`` (pyproject's addopts): the cores this process may use, at most 4.
 
-    xdist's own count (psutil's physical cores) ignores CPU affinity and a container's CPU quota,
-    and a worker per core of a large host would each compile the loop variants it meets.
+    xdist's own count (psutil's physical cores) ignores CPU affinity and a container's CPU quota
+    (:func:`edmd.cores.usable_cores` does not), and a worker per core of a large host would each
+    compile the loop variants it meets.
     """
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
-    try:
-        with open("/sys/fs/cgroup/cpu.max") as f:
-            quota, period = f.read().split()
-        if quota != "max":
-            cores = min(cores, max(1, int(quota) // int(period)))
-    except (OSError, ValueError):
-        pass
-    return min(cores, 4)
+    return min(usable_cores(), 4)

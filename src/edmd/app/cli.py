@@ -479,7 +479,7 @@ def init(
 def sweep(
     sweep_file: Path = typer.Argument(None, help="Sweep file (TOML): a base configuration and a \\[grid] and/or \\[\\[points]] of overrides."),
     out: Path = typer.Option(None, "--out", "-o", help="Sweep directory (default: <sweep file name>-sweep)."),
-    workers: int = typer.Option(None, "--workers", "-w", min=1, help="Local worker processes, or the --dask cluster size (default: one per CPU)."),
+    workers: int = typer.Option(None, "--workers", "-w", min=1, help="Local worker processes, or the --dask cluster size (default: one per core this process may use)."),
     scheduler: str = typer.Option(None, "--scheduler", help="Run on the dask.distributed cluster of this scheduler (tcp://host:8786)."),
     dask: bool = typer.Option(False, "--dask", help="Run on a local dask.distributed cluster (pip install 'edmd\\[dask]')."),
     summary: Path = typer.Option(None, "--summary", help="Only rebuild the results table of this sweep directory."),
@@ -529,7 +529,7 @@ def tables_build(
     model: str = typer.Option(..., "--model", "-m", help="Contact model: dashpot or hertz."),
     ranges: str = typer.Option("", "--ranges", "-r", help="Box, e.g. 'damping=0:0.5,log10_softness=-6:-0.7,b=0:0.99' (missing keys: the model's default)."),
     shape: str = typer.Option("", "--shape", help="Nodes per axis, e.g. '17,41,49' (default: the model's default)."),
-    workers: int = typer.Option(0, "--workers", "-j", help="Processes (0: all cores)."),
+    workers: int = typer.Option(0, "--workers", "-j", help="Processes (0: one per core this process may use)."),
     out: Path = typer.Option(None, "--out", "-o", help="Output .npz file (default: restitution_MODEL.npz)."),
     check: int = typer.Option(2000, "--check", help="Random points to check against the direct solver afterwards (0: skip)."),
     progress: bool = typer.Option(True, "--progress/--no-progress", help="Show a progress bar."),

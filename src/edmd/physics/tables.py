@@ -47,6 +47,7 @@ from pathlib import Path
 import numpy as np
 
 from .._core import lookup as _lk
+from ..cores import usable_cores
 from .._core.contact import MODEL_HERTZ
 from .._core.twobody import solve_scaled
 from .contact import MODELS
@@ -345,7 +346,8 @@ def build_table(
         model: ``"dashpot"``, ``"hertz"`` or a contact model.
         box: a :class:`Box`, a range string for :meth:`Box.parse`, or ``None`` (the model's default).
         shape: nodes per axis (default :data:`DEFAULT_SHAPES`).
-        workers: processes of the default executor (default: all cores; 1 = in this process).
+        workers: processes of the default executor (default: the cores this process may use,
+            :func:`edmd.cores.usable_cores`; 1 = in this process).
         executor: any :class:`concurrent.futures.Executor` (e.g. a Dask client's executor);
             overrides ``workers``.
         progress: show a rich progress bar.
@@ -365,8 +367,9 @@ def build_table(
     values = np.zeros((*shape, _lk.N_OUT))
     started = time.perf_counter()
     own = None
-    if executor is None and (workers or os.cpu_count() or 1) > 1:
-        own = executor = concurrent.futures.ProcessPoolExecutor(max_workers=workers or os.cpu_count())
+    workers = workers or usable_cores()
+    if executor is None and workers > 1:
+        own = executor = concurrent.futures.ProcessPoolExecutor(max_workers=workers)
     bar = _bar(name, shape[0]) if progress else None
     try:
         if executor is None:

@@ -15,6 +15,7 @@ from concurrent.futures import Executor, Future, ProcessPoolExecutor, as_complet
 from pathlib import Path
 from typing import Any
 
+from ...cores import usable_cores
 from ..config import parse_config
 from ..runner import run_directory
 from .files import CONFIG, ERROR, MANIFEST, POINT, STATUS, SUMMARY, point_dir, read_json, write_atomic, write_json
@@ -87,7 +88,8 @@ def sweep(
         executor: where the points run: any :class:`concurrent.futures.Executor` (e.g.
             ``dask.distributed.Client.get_executor()``, see :func:`dask_executor`). Default: a
             local process pool, shut down afterwards.
-        workers: size of the default process pool (default: the number of CPUs).
+        workers: size of the default process pool (default: the cores this process may use,
+            :func:`edmd.cores.usable_cores`).
         progress: show a progress bar counting points.
 
     Returns:
@@ -125,7 +127,7 @@ def dask_executor(scheduler: str | None = None, workers: int | None = None) -> I
     Args:
         scheduler: address of a running scheduler (``tcp://host:8786``); without it a local
             cluster of ``workers`` single-threaded worker processes is started and stopped.
-        workers: local cluster size (default: one per CPU); not used with ``scheduler``.
+        workers: local cluster size (default: one per usable core); not used with ``scheduler``.
 
     Example:
         >>> import edmd
@@ -146,7 +148,7 @@ def dask_executor(scheduler: str | None = None, workers: int | None = None) -> I
         with client:
             yield client.get_executor(pure=False)
         return
-    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True) as cluster, Client(cluster) as client:
+    with LocalCluster(n_workers=workers or usable_cores(), threads_per_worker=1, processes=True) as cluster, Client(cluster) as client:
         yield client.get_executor(pure=False)
 
 
@@ -166,7 +168,7 @@ def _run_all(todo: list[Point], out: Path, executor: Executor | None, workers: i
         return
     own = executor is None
     if own:
-        executor = ProcessPoolExecutor(max_workers=min(workers or os.cpu_count() or 1, len(todo)))
+        executor = ProcessPoolExecutor(max_workers=min(workers or usable_cores(), len(todo)))
     futures: dict[Future, Point] = {}
     try:
         futures = {executor.submit(run_point, p.text, str(point_dir(out, p.id))): p for p in todo}
