@@ -220,7 +220,7 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well, grow
             i = queue_top(q)
             if i < 0:
                 return L.ST_IDLE
-            warm_next(q, P, count, ev, lists, mode)
+            warm_next(q, P, count, ev, grid, lists, mode)
             t = key[i]
             if t >= t_stop:
                 return L.ST_TIME

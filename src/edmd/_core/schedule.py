@@ -133,7 +133,7 @@ def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, 
 
 
 @leaf
-def warm_next(q, P, count, ev, lists, mode):
+def warm_next(q, P, count, ev, grid, lists, mode):
     """Start loading what the next event will read (:mod:`.prefetch`): the particle of the next
     event is one of the calendar heap's two entries below the top (unless the current event
     schedules an earlier one), and its rows are far in memory from the current particle's."""
@@ -155,6 +155,9 @@ def warm_next(q, P, count, ev, lists, mode):
                 if mode == NB_LIST:
                     prefetch(lists.members, k)
                     prefetch(lists.size, k)
+                else:  # a crossing first finds the particle's cell and unlinks it from it
+                    prefetch(grid.cell, k)
+                    prefetch(grid.link, k)
 
 
 @hot
