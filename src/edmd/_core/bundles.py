@@ -77,7 +77,7 @@ class Calendar(NamedTuple):
     back: np.ndarray  #: (N,) int32 previous particle in the bucket
     head: np.ndarray  #: (buckets + 1,) int32 first particle of each bucket (last: overflow)
     heap: np.ndarray  #: (N,) int32 binary heap of the current bucket
-    ints: np.ndarray  #: (4,) int64 QI_* scalars
+    ints: np.ndarray  #: (5,) int64 QI_* scalars
     floats: np.ndarray  #: (3,) float64 QF_* scalars
 
 

@@ -9,7 +9,7 @@ redistributed when the calendar wraps. Each particle is in exactly one place:
 * ``loc[i] = -2 - b``: in bucket ``b`` (``b == nb`` is the overflow list).
 
 The arrays form :class:`.bundles.Calendar` (unpacked here as ``key, loc, nxt, prv, head, heap,
-qi, qf``). State scalars: ``qi = [heap_size, current_bucket, nb, moved]``, ``qf = [t_base, 1/w,
+qi, qf``). State scalars: ``qi = [heap_size, current_bucket, nb, moved, cursor]``, ``qf = [t_base, 1/w,
 w]``; ``moved`` counts the entries visited when a bucket is opened or the calendar wraps (the
 calendar's own work: per event it stays O(1) when the bucket width fits the event rate).
 """
@@ -17,8 +17,9 @@ calendar's own work: per event it stays O(1) when the bucket width fits the even
 import numpy as np
 from .jit import hot, jit, leaf
 from .bundles import Calendar
+from .prefetch import prefetch
 
-QI_SIZE, QI_CUR, QI_NB, QI_MOVED = 0, 1, 2, 3
+QI_SIZE, QI_CUR, QI_NB, QI_MOVED, QI_CURSOR = 0, 1, 2, 3, 4
 QF_BASE, QF_INV, QF_WIDTH = 0, 1, 2
 
 
@@ -203,6 +204,31 @@ def queue_top(q):
     return heap[0]
 
 
+@leaf
+def warm_bucket(q):
+    """Walk one step down the list of the bucket after the current one, loading its entry.
+
+    Opening a bucket walks its linked list, each entry a load that waits on the one before (large
+    N: none is in a cache). One step per event ahead of time leaves the list cached when it opens.
+    The cursor (``qi[QI_CURSOR]``) restarts at the list's head whenever its entry has left that
+    bucket; it is a hint only and changes no result.
+    """
+    key, loc, nxt, prv, head, heap, qi, qf = q
+    b = qi[QI_CUR] + 1
+    if b >= qi[QI_NB]:
+        return
+    c = qi[QI_CURSOR]
+    if c >= 0 and loc[c] == -2 - b:
+        c = nxt[c]
+    else:
+        c = head[b]
+    qi[QI_CURSOR] = c
+    if c >= 0:
+        prefetch(nxt, c)
+        prefetch(key, c)
+        prefetch(loc, c)
+
+
 @jit
 def queue_build(q, keys, t_now, width, nb):
     """Fill an empty calendar with ``keys``; bucket ``0`` starts at ``t_now``."""
@@ -211,6 +237,7 @@ def queue_build(q, keys, t_now, width, nb):
     qi[QI_SIZE] = 0
     qi[QI_CUR] = 0
     qi[QI_NB] = nb
+    qi[QI_CURSOR] = -1
     qf[QF_BASE] = t_now
     qf[QF_WIDTH] = width
     qf[QF_INV] = 1.0 / width
@@ -227,7 +254,7 @@ def new_queue(n, nb):
         np.full(n, -1, np.int32),
         np.full(nb + 1, -1, np.int32),
         np.zeros(n, np.int32),
-        np.zeros(4, np.int64),
+        np.zeros(5, np.int64),
         np.zeros(3, np.float64),
     )
 

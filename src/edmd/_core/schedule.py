@@ -24,7 +24,7 @@ from .layout import NB_LIST
 from .nblist import SQRT3, shell_exit_time
 from .prefetch import prefetch
 from .predict import INF, advance, box_shift, flight, gap_time, pair_contact_time, wrap3
-from .queue import QI_SIZE, queue_update
+from .queue import QI_SIZE, queue_update, warm_bucket
 from .wallmotion import vibrating_type, has_wall, is_moving, level_time, ride_axis, ride_end, wall_params
 from .walls import moving_wall_time, ride_pair_dt
 from .growth import closer_grow
@@ -158,6 +158,7 @@ def warm_next(q, P, count, ev, grid, lists, mode):
                 else:  # a crossing first finds the particle's cell and unlinks it from it
                     prefetch(grid.cell, k)
                     prefetch(grid.link, k)
+    warm_bucket(q)
 
 
 @hot
