@@ -136,7 +136,9 @@ def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, 
 def warm_next(q, P, count, ev, grid, lists, mode):
     """Start loading what the next event will read (:mod:`.prefetch`): the particle of the next
     event is one of the calendar heap's two entries below the top (unless the current event
-    schedules an earlier one), and its rows are far in memory from the current particle's."""
+    schedules an earlier one), and its rows are far in memory from the current particle's: its
+    rows and event fields, its neighbour list (lists mode) or its cell and cell link (cells mode:
+    a crossing first unlinks it), and one entry of the next bucket's list (:func:`.queue.warm_bucket`)."""
     heap = q.heap
     size = q.ints[QI_SIZE]
     n = P.shape[0]
