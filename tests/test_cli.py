@@ -198,6 +198,8 @@ def test_compile_names_a_bad_feature():
     assert r.exit_code == 2 and "grow takes only walls" in r.output
     r = runner.invoke(app, ["compile", "shear+bath"])
     assert r.exit_code == 2 and "shear takes walls" in r.output
+    r = runner.invoke(app, ["compile", "walls+debug"])
+    assert r.exit_code == 2 and "debug mode is a run-time switch of every loop variant" in r.output
 
 
 def test_compile_warms_the_vibrating_wall():

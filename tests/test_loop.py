@@ -1,5 +1,6 @@
 """Loop variants: a run compiles only the code of its features (core v2, compile-time specialisation)."""
 
+import numpy as np
 import pytest
 from numba.core import ir, types
 from numba.core.analysis import dead_branch_prune
@@ -12,7 +13,7 @@ from edmd._core.jit import in_disk_cache
 from edmd._core.loop import loop_variant
 
 PLAIN = (False, False, False, L.NORMAL_CONST)
-FEATURE_CODE = {"_debug_check", "emd_contact", "emd_contact_frictional", "finish_contact", "collide_wall", "execute_b", "is_pending", "well_event"}
+FEATURE_CODE = {"emd_contact", "emd_contact_frictional", "finish_contact", "collide_wall", "execute_b", "is_pending", "well_event"}
 
 
 def referenced_globals(func) -> set[str]:
@@ -31,17 +32,17 @@ def test_plain_hard_spheres_compile_no_feature_code():
     names = referenced_globals(loop_variant(*PLAIN).run_events.py_func)
     assert {"collide_pair", "predict_pair", "predict_aux", "queue_top", "rebuild_list", "cross_cell"} <= names
     assert not names & FEATURE_CODE
+    assert "_debug_check" in names  # debug mode is a run-time switch of every variant (a called function)
 
 
 @pytest.mark.parametrize(
     "features, code",
     [
         ((True, False, False, L.NORMAL_CONST), {"collide_wall"}),
-        ((False, False, False, L.NORMAL_CONST, True), {"_debug_check"}),
         ((False, True, False, L.NORMAL_SOFT), {"emd_contact", "execute_b"}),
         ((True, True, False, L.NORMAL_SOFT), {"collide_wall", "emd_contact", "finish_contact", "execute_b", "is_pending"}),
         ((False, True, True, L.NORMAL_SOFT), {"emd_contact_frictional", "execute_b"}),
-        ((False, False, False, L.NORMAL_CONST, False, False, False, True), {"well_event"}),
+        ((False, False, False, L.NORMAL_CONST, False, False, True), {"well_event"}),
     ],
 )
 def test_each_feature_brings_its_own_code(features, code):
@@ -121,3 +122,19 @@ def test_no_bundle_is_indexed_by_number_in_the_core():
     numeric = re.compile(r"(?<![\w.])(part|ev|q|grid|lists|emd)\[\d")
     hits = [f"{src.name}:{k + 1}" for src in core.glob("*.py") for k, line in enumerate(src.read_text().splitlines()) if numeric.search(line)]
     assert hits == []
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("neighbours", ["list", "cells"])
+def test_debug_mode_is_a_switch_of_the_same_variant_that_stops_at_a_false_contact(dim, neighbours):
+    # every particle nudged by up to 1 % of sigma behind the calendar's back: the collisions were
+    # predicted from the old positions, so their pairs are away from contact; only the debug check sees it
+    state = edmd.maxwell_boltzmann(edmd.lattice(216 if dim == 3 else 64, 0.3, dim=dim), 1.0, seed=3)
+    runs = {debug: edmd.Simulation(state, engine={"neighbours": neighbours, "debug": debug}) for debug in (False, True)}
+    assert runs[True].engine.loop is runs[False].engine.loop is loop_variant(*PLAIN)
+    for sim in runs.values():
+        sim.run(max_events=100)
+        sim.engine.part.rows[:, L.X : L.X + dim] += np.random.default_rng(1).uniform(-0.01, 0.01, (state.n, dim))
+    runs[False].run(max_events=100)
+    with pytest.raises(edmd.EngineError, match=r"debug check failed at t = .*: particles \d+ and \d+ \(relative contact error"):
+        runs[True].run(max_events=100)

@@ -31,11 +31,13 @@ MODES = {"elastic": "cells", "inelastic": "list", "rough": "list", "coulomb": "c
 
 @pytest.mark.parametrize("rule", list(RULES))
 def test_peculiar_sums_follow_the_state_and_the_energy_balance_closes(dim, rule):
-    # walls close z (3D): rough walls in a sheared box book their work on the peculiar motion too
-    periodic = [True, True, False] if dim == 3 else None
+    # walls close z (3D, rough pair rules): rough walls in a sheared box book their work on the
+    # peculiar motion too (the other rules in 3D go without, so as not to compile two more loop variants)
+    walled = dim == 3 and rule in ("rough", "coulomb")
+    periodic = [True, True, False] if walled else None
     shear = edmd.Shear(1.5)
     s = shear.with_profile(_gas(dim, periodic=periodic, spin=rule in ("rough", "coulomb")))
-    walls = collide.Wall(e_n=0.9, beta=0.3, mu=0.2) if dim == 3 else None
+    walls = collide.Wall(e_n=0.9, beta=0.3, mu=0.2) if walled else None
     sim = edmd.Simulation(s, shear=shear, walls=walls, engine={"debug": True, "neighbours": MODES[rule]}, **RULES[rule])
     assert sim.engine.mode == MODES[rule]
     start = sim.peculiar_state(sim.state)
@@ -55,7 +57,7 @@ def test_peculiar_sums_follow_the_state_and_the_energy_balance_closes(dim, rule)
     e1 = state.kinetic_energy() + state.rotational_energy()
     assert totals.shear_work > 0.05 * e0  # the flow heats the gas
     assert e1 - e0 == pytest.approx(totals.shear_work - totals.dissipated, abs=1e-9 * e0)
-    if rule == "elastic" and dim == 2:
+    if rule == "elastic":
         assert totals.dissipated == 0.0
 
 

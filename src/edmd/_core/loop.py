@@ -111,18 +111,18 @@ class Loop(NamedTuple):
 
 def variant_name(key: tuple) -> str:
     """Readable name of a feature set (the key of :func:`loop_variant`: walls, emd_on, rough,
-    normal, debug, bath, noise, well, grow), e.g. ``"walls+rough+soft"`` (``"plain"``: none;
+    normal, bath, noise, well, grow), e.g. ``"walls+rough+soft"`` (``"plain"``: none;
     ``soft``: the central restitution of a contact law, e.g. viscoelastic spheres).
 
     Example:
         >>> from edmd._core import layout as L
-        >>> variant_name((True, False, True, L.NORMAL_SOFT, False, False, False, False, False))
+        >>> variant_name((True, False, True, L.NORMAL_SOFT, False, False, False, False))
         'walls+rough+soft'
     """
-    walls, emd_on, rough, normal, debug, bath, noise, well, grow = key
+    walls, emd_on, rough, normal, bath, noise, well, grow = key
     parts = [name for name, on in (("walls", walls), ("emdstar", emd_on), ("rough", rough)) if on]
     soft = normal == NORMAL_SOFT and not emd_on  # (eMD*'s instantaneous fallbacks always use the soft law)
-    parts += [name for name, on in (("soft", soft), ("bath", bath), ("noise", noise), ("well", well), ("grow", grow), ("debug", debug)) if on]
+    parts += [name for name, on in (("soft", soft), ("bath", bath), ("noise", noise), ("well", well), ("grow", grow)) if on]
     return "+".join(parts) or "plain"
 
 
@@ -135,7 +135,6 @@ def loop_variant(
     emd_on: bool,
     rough: bool,
     normal: int,
-    debug: bool = False,
     bath: bool = False,
     noise: bool = False,
     well: bool = False,
@@ -147,7 +146,9 @@ def loop_variant(
     branches they decide before type inference, through the inlined helpers too, so a run
     compiles only the collision code of its own rules, and each feature set is a separate entry
     of the on-disk cache (closure values are part of the cache key). The neighbour structure stays
-    a run-time choice: its code is in functions compiled once and called.
+    a run-time choice: its code is in functions compiled once and called. So is debug mode
+    (``ip[IP_DEBUG]``, one test per collision): its check is a called function, compiled once,
+    and as a flag it doubled the variants a test suite compiles.
 
     Args:
         walls: some axis is closed by walls (which ones: ``ip[IP_WALLS]``); without, no wall code.
@@ -155,7 +156,6 @@ def loop_variant(
         rough: pair collisions have a tangential law (``ip[IP_TANGENT]``); without, the smooth
             rule only (no spin code).
         normal: the normal law of pair collisions (``NORMAL_*``).
-        debug: the per-collision checks of debug mode (``_debug_check``).
         bath: the Andersen heat bath's events (:mod:`.bath`).
         noise: white-noise kicks, a global timer in the calendar (:mod:`.forcing`).
         well: square wells, pair events of several kinds with a capture map (:mod:`.wells`;
@@ -169,9 +169,9 @@ def loop_variant(
         >>> loop is loop_variant(False, False, False, L.NORMAL_CONST)
         True
     """
-    key = (bool(walls), bool(emd_on), bool(rough), int(normal), bool(debug), bool(bath), bool(noise), bool(well), bool(grow))
+    key = (bool(walls), bool(emd_on), bool(rough), int(normal), bool(bath), bool(noise), bool(well), bool(grow))
     if key not in _VARIANTS:
-        aux = (key[0], key[1], key[5], key[7], key[8])  # the set-up depends on the single-particle events, wells and growth only
+        aux = (key[0], key[1], key[4], key[6], key[7])  # the set-up depends on the single-particle events, wells and growth only
         if aux not in _SETUPS:
             _SETUPS[aux] = _make_setup(*aux)
         _VARIANTS[key] = Loop(_make_loop(*key), _SETUPS[aux], variant_name(key))
@@ -189,7 +189,7 @@ def _resting_on_wall(i, t_abs, now_abs, ev):
     return wall and t_abs - now_abs <= L.STALL_RESOLUTION * t_abs
 
 
-def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well, grow):
+def _make_loop(walls, emd_on, rough, normal, bath_on, kick_on, well, grow):
     @jit
     def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, etab, emd, drive, pairs, t_stop, max_events):
         """Process events in time order until ``t_stop`` (exclusive) or ``max_events``.
@@ -208,6 +208,7 @@ def _make_loop(walls, emd_on, rough, normal, debug, bath_on, kick_on, well, grow
         mode = ip[L.IP_MODE]
         log_cap = ip[L.IP_LOG_CAP]
         log_walls = log_cap > 0 and ip[L.IP_LOG_WALLS] != 0
+        debug = ip[L.IP_DEBUG] != 0
         total_mass = fp[L.FP_MTOT]
         skin = fp[L.FP_SKIN]
         reach = well_reach(fp)

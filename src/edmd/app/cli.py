@@ -444,12 +444,12 @@ def _announce_compiles():
 @app.command("compile")
 def compile_(
     features: list[str] = typer.Argument(None, help="Feature sets, e.g. plain walls+rough emdstar (default: plain)."),
-    all_: bool = typer.Option(False, "--all", help="Every feature set but debug (88 variants, some minutes)."),
+    all_: bool = typer.Option(False, "--all", help="Every feature set (88 variants, some minutes)."),
 ):
     """Compile the event loop ahead of time for these feature sets (for a cluster image, sweep workers or CI).
 
     Features: plain, or walls, rough, soft (viscoelastic), emdstar, bath, noise, vibration, well, grow,
-    shear, debug joined by '+'.
+    shear joined by '+'. Debug mode needs no variant of its own.
     """
     from .precompile import FeatureError, all_feature_sets, compile_features, parse_features
 

@@ -12,8 +12,8 @@ another name for it), ``emdstar`` (``emdstar+rough``: frictional eMD*),
 :class:`edmd.WhiteNoise`), ``vibration`` (a vibrating wall, :class:`edmd.VibratingWall`: the
 walls variant compiled for its geometry), ``well`` (square wells, :class:`edmd.SquareWell`), ``grow``
 (growing particles, :func:`edmd.compress`), ``shear`` (Lees-Edwards shear, :class:`edmd.Shear`: a
-variant compiled for its geometry) and ``debug`` (the per-collision checks
-of ``[engine] debug``), e.g. ``walls+rough+soft``.
+variant compiled for its geometry), e.g. ``walls+rough+soft``. Debug mode (``[engine] debug``) is
+a run-time switch of every variant and needs no compile of its own.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from .._core import layout as L
 from .._core.jit import in_disk_cache
 from .._core.loop import GEO_ARG, loop_variant
 
-FEATURES = ("walls", "rough", "soft", "emdstar", "bath", "noise", "vibration", "well", "grow", "shear", "debug")
+FEATURES = ("walls", "rough", "soft", "emdstar", "bath", "noise", "vibration", "well", "grow", "shear")
 #: other names of features
 SYNONYMS = {"viscoelastic": "soft"}
 
@@ -50,6 +50,8 @@ def parse_features(spec: str) -> frozenset[str]:
     names = [SYNONYMS.get(n.strip(), n.strip()) for n in spec.split("+") if n.strip()]
     if names == ["plain"]:
         return frozenset()
+    if "debug" in names:
+        raise FeatureError("debug is no feature set: debug mode is a run-time switch of every loop variant")
     unknown = [n for n in names if n not in FEATURES]
     if unknown or not names:
         raise FeatureError(f"unknown feature {unknown[0] if unknown else spec!r}; the features are plain or {', '.join(FEATURES)} joined by '+'")
@@ -60,19 +62,19 @@ def parse_features(spec: str) -> frozenset[str]:
         raise FeatureError("white-noise kicks and eMD* cannot be combined")
     if {"emdstar", "well"} <= found:
         raise FeatureError("square wells and eMD* cannot be combined")
-    if "grow" in found and found - {"grow", "walls", "debug"}:
+    if "grow" in found and found - {"grow", "walls"}:
         raise FeatureError("growing particles (compression) are smooth elastic hard spheres in a periodic box or between walls: grow takes only walls")
     if "vibration" in found and "walls" not in found:
         raise FeatureError("a vibrating wall is one of the walls: vibration needs walls")
     if "shear" in found and found & {"emdstar", "bath", "noise", "vibration", "well", "grow"}:
-        raise FeatureError("shear takes walls (along z), rough, soft and debug only")
+        raise FeatureError("shear takes walls (along z), rough and soft only")
     return found
 
 
 def all_feature_sets() -> list[frozenset[str]]:
     """The feature sets ``edmd compile --all`` builds: every normal and tangential law with and without
     walls and eMD*, each with the drivers, a vibrating wall and square wells (with and without the
-    drivers), shear, and growth (debug mode excluded).
+    drivers), shear, and growth.
 
     Example:
         >>> sets = all_feature_sets()
@@ -96,7 +98,7 @@ def all_feature_sets() -> list[frozenset[str]]:
 def _variant(features: frozenset[str]):
     normal = L.NORMAL_SOFT if features & {"soft", "emdstar"} else L.NORMAL_CONST
     return loop_variant(
-        *(name in features for name in ("walls", "emdstar", "rough")), normal, *(name in features for name in ("debug", "bath", "noise", "well", "grow"))
+        *(name in features for name in ("walls", "emdstar", "rough")), normal, *(name in features for name in ("bath", "noise", "well", "grow"))
     )
 
 
@@ -128,8 +130,7 @@ def _example(features: frozenset[str]):
         growth = Growth(rate=0.01) if "grow" in features else None
         shear = Shear(rate=0.1) if "shear" in features else None
         return edmd.Simulation(
-            state, collision=None if growth else rule, thermostat=bath, forcing=kicks, vibration=shaker, well=well, growth=growth, shear=shear,
-            engine={"debug": "debug" in features},
+            state, collision=None if growth else rule, thermostat=bath, forcing=kicks, vibration=shaker, well=well, growth=growth, shear=shear
         )  # fmt: skip
 
 

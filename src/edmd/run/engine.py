@@ -189,7 +189,6 @@ class Engine:
             self.emd_rule is not None,
             ip[L.IP_TANGENT] != L.TANGENT_SMOOTH,
             ip[L.IP_NORMAL],
-            self.options.debug,
             self.thermostat is not None,
             self.forcing is not None,
             self.well is not None,
