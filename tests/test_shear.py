@@ -33,10 +33,11 @@ MODES = {"elastic": "cells", "inelastic": "list", "rough": "list", "coulomb": "c
 def test_peculiar_sums_follow_the_state_and_the_energy_balance_closes(dim, rule):
     # walls close z (3D, rough pair rules): rough walls in a sheared box book their work on the
     # peculiar motion too (the other rules in 3D go without, so as not to compile two more loop variants)
-    walled = dim == 3 and rule in ("rough", "coulomb")
+    rough = rule in ("rough", "coulomb")
+    walled = dim == 3 and rough
     periodic = [True, True, False] if walled else None
     shear = edmd.Shear(1.5)
-    s = shear.with_profile(_gas(dim, periodic=periodic, spin=rule in ("rough", "coulomb")))
+    s = shear.with_profile(_gas(dim, periodic=periodic, spin=rough))
     walls = collide.Wall(e_n=0.9, beta=0.3, mu=0.2) if walled else None
     sim = edmd.Simulation(s, shear=shear, walls=walls, engine={"debug": True, "neighbours": MODES[rule]}, **RULES[rule])
     assert sim.engine.mode == MODES[rule]

@@ -148,7 +148,7 @@ def loop_variant(
     of the on-disk cache (closure values are part of the cache key). The neighbour structure stays
     a run-time choice: its code is in functions compiled once and called. So is debug mode
     (``ip[IP_DEBUG]``, one test per collision): its check is a called function, compiled once,
-    and as a flag it doubled the variants a test suite compiles.
+    and as a closure flag it gave every variant that a debug run used a twin to compile.
 
     Args:
         walls: some axis is closed by walls (which ones: ``ip[IP_WALLS]``); without, no wall code.
