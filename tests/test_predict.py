@@ -42,17 +42,27 @@ def test_near_contact_is_free_of_cancellation():
     st.lists(st.floats(-5, 5), min_size=3, max_size=3),
     st.lists(st.floats(-3, 3), min_size=3, max_size=3),
     st.floats(0.5, 2.0),
+    st.one_of(st.just(0), st.integers(-170, 0)),
 )
-def test_contact_time_solves_the_contact_equation(r, g, sigma):
-    r, g = np.array(r), np.array(g)
+def test_contact_time_solves_the_contact_equation(r, g, sigma, speed_exponent):
+    # speeds down to 1e-170 reach the underflow of |g|^2: there the time is infinite or exact
+    r, g = np.array(r), np.array(g) * 10.0**speed_exponent
     t = contact_time(*r, *g, sigma)
-    if r @ r <= sigma**2 or not np.isfinite(t) or g @ g < 1e-280:
-        return  # (|g|^2 underflowing: a contact ~1e140 time units away, which no run reaches, is not resolved)
+    if r @ r <= sigma**2 or not np.isfinite(t):
+        return
     assert t >= 0
     assert np.linalg.norm(r + g * t) == pytest.approx(sigma, rel=1e-9)
     # and no earlier contact: the distance is above sigma on a fine grid before t
     s = np.linspace(0, t, 50)[:-1]
     assert np.all(np.linalg.norm(r[None] + g[None] * s[:, None], axis=1) >= sigma * (1 - 1e-9))
+
+
+def test_underflowing_relative_speed_gives_no_event():
+    # found by hypothesis: |g|^2 underflows to 0 and b^2 to a denormal, which gave a finite time
+    # (~1e162) whose contact missed sigma by 1.65; the exact contact is ~1e162 time units away
+    assert contact_time(0.0, 3.0, 0.0, 0.0, -7.6e-163, 0.0, 2.0) == INF
+    # a speed 1e-140 is still resolved exactly: the gap 1 closes in 1e140
+    assert contact_time(0.0, 3.0, 0.0, 0.0, -1e-140, 0.0, 2.0) == pytest.approx(1e140, rel=1e-12)
 
 
 def test_t13_dropped_ball_and_bounce():
