@@ -51,6 +51,8 @@ def test_pair_times_with_growing_radii_match_a_brute_force_search(rng):
     assert checked > 100 and met_by_growth > 10, (checked, met_by_growth)
     assert growing_contact_time(1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.1) == 0.0  # touching and closing: now
     assert growing_contact_time(2.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0) == math.inf  # apart, no growth
+    # |g|^2 underflowing, no growth: no event, not a finite wrong time (~1e162; see test_predict)
+    assert growing_contact_time(0.0, 3.0, 0.0, 0.0, -7.6e-163, 0.0, 2.0, 0.0) == math.inf
 
 
 def test_compression_reaches_the_target_without_overlap(dim):

@@ -11,7 +11,7 @@ import math
 from . import layout as L
 from .collide import contact_normal, pair_impulse
 from .jit import hot, leaf
-from .predict import INF, relative_to
+from .predict import DISC_RESOLVED, INF, relative_to
 
 
 @leaf
@@ -20,9 +20,10 @@ def growing_contact_time(dx, dy, dz, gx, gy, gz, s, ds):
 
     The root of :math:`|\mathbf d + \mathbf g t|^2 = (s + \dot s t)^2` at which the gap closes:
     with :math:`a = g^2 - \dot s^2`, :math:`b = \mathbf d\cdot\mathbf g - s\dot s`, :math:`c = d^2 - s^2`,
-    a closing gap (:math:`b < 0`) meets at :math:`c/(-b + \sqrt{b^2 - ac})` (0 if already touching);
-    an opening one only when the growth outruns the flight (:math:`a < 0`), at
-    :math:`(b + \sqrt{b^2 - ac})/(-a)`.
+    a closing gap (:math:`b < 0`) meets at :math:`c/(-b + \sqrt{b^2 - ac})` (0 if already touching;
+    never if the discriminant is below ``DISC_RESOLVED``, where it has underflowed, as in
+    :func:`.predict.contact_time`); an opening one only when the growth outruns the flight
+    (:math:`a < 0`), at :math:`(b + \sqrt{b^2 - ac})/(-a)`.
 
     Example:
         >>> round(growing_contact_time(3.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.5), 12)   # at rest: 1 + t/2 = 3
@@ -35,7 +36,7 @@ def growing_contact_time(dx, dy, dz, gx, gy, gz, s, ds):
     if b < 0.0:
         if c <= 0.0:
             return 0.0
-        if disc <= 0.0:
+        if disc <= DISC_RESOLVED:
             return INF
         return c / (math.sqrt(disc) - b)
     if a >= 0.0:
