@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from edmd._core.predict import INF, contact_time, gap_time, sphere_exit_time
+from edmd._core.predict import INF, contact_time, gap_time, sliding_contact_time, sphere_exit_time
 
 
 def test_t1_pair_time_worked_example():
@@ -63,6 +63,42 @@ def test_underflowing_relative_speed_gives_no_event():
     assert contact_time(0.0, 3.0, 0.0, 0.0, -7.6e-163, 0.0, 2.0) == INF
     # a speed 1e-140 is still resolved exactly: the gap 1 closes in 1e140
     assert contact_time(0.0, 3.0, 0.0, 0.0, -1e-140, 0.0, 2.0) == pytest.approx(1e140, rel=1e-12)
+
+
+def test_sliding_contact_time_is_the_earliest_contact_over_the_images():
+    """Across a sliding face the partner's x images (period L_x) slide by: the predictor visits only
+    the tubes its motion reaches, in order; the reference tries every image within 400 boxes."""
+    rng = np.random.default_rng(7)
+    met = 0
+    for _ in range(3000):
+        d = rng.normal(size=3) * rng.uniform(0.5, 4.0)
+        g = rng.normal(size=3) * rng.uniform(0.1, 3.0)
+        if rng.random() < 0.2:
+            g[1:] = 0.0  # motion along x only
+        g[0] += rng.choice([-1.0, 1.0]) * rng.uniform(0.0, 20.0)  # the shear's sliding speed
+        sigma, lx = rng.uniform(0.5, 1.5), rng.uniform(3.5, 12.0)
+        reference = min(contact_time(d[0] - k * lx, d[1], d[2], *g, sigma) for k in range(-400, 401))
+        t = sliding_contact_time(*d, *g, sigma, lx, math.inf)
+        if reference < INF:
+            assert t == reference
+            met += 1
+        else:  # (a contact with an image beyond 400 boxes is not expected at these speeds)
+            assert t == INF
+    assert met > 300
+
+
+def test_sliding_contact_time_ends_for_slow_and_far_approaches():
+    # motion along x only: the next image is met (docstring), and with |g|^2 underflowing never,
+    # after the tube ahead (the loop visited images for ever once contact_time gave inf for them)
+    assert sliding_contact_time(0.5, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 10.0, INF) == 8.5
+    assert sliding_contact_time(0.5, 0.0, 0.0, 1e-163, 0.0, 0.0, 1.0, 10.0, INF) == INF
+    # (y, z) just outside the disc, closing at 1e-150 while sliding at 1: the disc is entered
+    # ~2e149 later, 2e148 images on, where the images are no longer resolved; an approach at 1e-3
+    # starts at the image it reaches (~2e1 boxes on) instead of visiting every one before it
+    assert sliding_contact_time(0.5, 1.2, 0.0, 1.0, -1e-150, 0.0, 1.0, 10.0, INF) == INF
+    t = sliding_contact_time(0.5, 1.2, 0.0, 1.0, -1e-3, 0.0, 1.0, 10.0, INF)
+    k = round((0.5 + t) / 10.0)
+    assert t < INF and t == contact_time(0.5 - k * 10.0, 1.2, 0.0, 1.0, -1e-3, 0.0, 1.0)
 
 
 def test_t13_dropped_ball_and_bounce():

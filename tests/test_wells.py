@@ -8,6 +8,7 @@ import pytest
 import edmd
 from edmd import SquareWell, Simulation, State
 from edmd._core import layout as L
+from edmd._core.wells import edge_exit_time
 from edmd.files.checkpoint import Checkpoint, load_checkpoint
 from edmd.files.trajectory import read_state, write_state
 from edmd.physics.emdstar import EMDStar
@@ -196,6 +197,17 @@ def test_a_pair_grazing_the_edge_from_inside_keeps_the_clock_moving(dim):
         sim = Simulation(State(pos, vel, 0.5, 1.0, [20.0] * dim), well=WELL)
         sim.run(until_time=0.01)
         assert sim.time == 0.01 and sim.well_energy == -1.0 and sim.engine.cnt[L.C_WELL_BOUNCE] > 100
+
+
+def test_edge_exit_time_of_slow_and_ordinary_pairs():
+    assert edge_exit_time(0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 1.5) == 0.5  # inside, moving out
+    assert edge_exit_time(0.0, 1.0, 0.0, 0.0, -1.0, 0.0, 1.5) == 2.5  # inside, moving in: through the core's plane
+    assert edge_exit_time(0.0, 1.6, 0.0, 0.0, 1.0, 0.0, 1.5) == 0.0  # beyond by round-off, moving out: now
+    assert edge_exit_time(0.0, 1.0, 0.0, 0.0, 1e-140, 0.0, 1.5) == pytest.approx(5e139, rel=1e-12)
+    # found by a search over tiny speeds: b^2 - ac underflowed to 0 and the pair, deep inside its
+    # well (|d| = 1.33 < 1.5), was told to leave now; the exact exit is ~1e162 time units away
+    d, g = (0.822068, -0.88522987, 0.55108277), (-5.99586393e-163, -8.63910627e-163, 1.93316919e-162)
+    assert edge_exit_time(*d, *g, 1.5) == math.inf
 
 
 def test_a_capture_map_that_is_not_the_geometry_is_refused(dim):

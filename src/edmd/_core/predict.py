@@ -66,7 +66,9 @@ def sliding_contact_time(dx, dy, dz, gx, gy, gz, sigma, lx, horizon):
     nearest image now need not be the one met: the tubes of radius :math:`\sigma` around the images
     are visited in the order the motion along x reaches them, while the :math:`(y, z)` separation is
     within :math:`\sigma`; the first contact found is the earliest (the tubes are disjoint, :math:`2\sigma < L_x`).
-    Tubes entered after ``horizon`` (the earliest event known so far) are not visited. Called, not
+    Tubes entered after ``horizon`` (the earliest event known so far) are not visited, nor those
+    passed before the :math:`(y, z)` separation enters the disc (a slow approach across the shear
+    would otherwise visit ~:math:`|g_x| t_{\rm in}/L_x` images one by one). Called, not
     inlined: only pairs across the face take it (inlining it measured the same speed).
 
     Example:
@@ -77,6 +79,7 @@ def sliding_contact_time(dx, dy, dz, gx, gy, gz, sigma, lx, horizon):
     a = gy * gy + gz * gz
     b = dy * gy + dz * gz
     c = dy * dy + dz * dz - sigma * sigma
+    t_in = 0.0
     t_out = horizon
     if a == 0.0:
         if c >= 0.0:
@@ -85,17 +88,29 @@ def sliding_contact_time(dx, dy, dz, gx, gy, gz, sigma, lx, horizon):
         disc = b * b - a * c
         if disc <= 0.0:
             return INF
-        t_out = min(t_out, (math.sqrt(disc) - b) / a)
+        root = math.sqrt(disc)
+        t_out = min(t_out, (root - b) / a)
         if t_out <= 0.0:
             return INF
+        if c > 0.0:  # (then b < 0) the (y, z) track enters the disc at t_in: tubes passed before are missed
+            t_in = c / (root - b)
     if gx == 0.0:
         return contact_time(dx, dy, dz, gx, gy, gz, sigma)
     step = 1.0 if gx > 0.0 else -1.0
-    k = float(math.ceil((dx - sigma) / lx) if gx > 0.0 else math.floor((dx + sigma) / lx))
+    x = dx + gx * t_in
+    k = float(math.ceil((x - sigma) / lx) if gx > 0.0 else math.floor((x + sigma) / lx))
+    if t_in > 0.0:
+        k -= step  # (a margin for the round-off of t_in)
+    if abs(k) > 2.0**50:
+        return INF  # (images ~1e15 boxes away: neither they nor the time are resolved)
+    missed = 0
     while (step * (k * lx - dx) - sigma) / abs(gx) < t_out:  # (the time the motion enters image k's tube)
         tk = contact_time(dx - k * lx, dy, dz, gx, gy, gz, sigma)
         if tk < INF:
             return tk
+        missed += 1
+        if a == 0.0 and missed == 2:  # motion along x only meets the first tube ahead: |g|^2 underflowed
+            return INF
         k += step
     return INF
 

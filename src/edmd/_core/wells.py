@@ -24,7 +24,7 @@ import numpy as np
 from . import layout as L
 from .collide import contact_normal, pair_impulse
 from .jit import hot, jit, leaf
-from .predict import INF, contact_time, relative_to, separation
+from .predict import DISC_RESOLVED, INF, contact_time, relative_to, separation
 
 
 @leaf
@@ -66,7 +66,8 @@ def edge_exit_time(dx, dy, dz, gx, gy, gz, edge):
     The larger root of :math:`|\mathbf d + \mathbf g t| = \lambda\sigma`, cancellation-free. A pair at
     or (by round-off) beyond the edge that moves inwards, as right after its capture or bounce,
     crosses the well first (taken as starting on the edge, so that a grazing pair still advances
-    the clock); one that moves outwards leaves now (``0``).
+    the clock); one that moves outwards leaves now (``0``). A pair inside that moves outwards so
+    slowly that :math:`|\mathbf g|^2` underflows (:math:`\lesssim 10^{-290}`) never leaves (``inf``), not now.
     """
     a = gx * gx + gy * gy + gz * gz
     b = dx * gx + dy * gy + dz * gz
@@ -74,10 +75,12 @@ def edge_exit_time(dx, dy, dz, gx, gy, gz, edge):
     if a == 0.0:
         return INF
     if b > 0.0:
-        disc = b * b - a * c
-        if disc <= 0.0:  # beyond the edge by round-off, moving out: leave now
+        if c >= 0.0:  # beyond the edge by round-off, moving out: leave now
             return 0.0
-        return max(0.0, -c / (b + math.sqrt(disc)))
+        disc = b * b - a * c  # (>= b^2 > 0: below DISC_RESOLVED only where |g|^2 underflowed)
+        if disc <= DISC_RESOLVED:
+            return INF
+        return -c / (b + math.sqrt(disc))
     c = min(c, 0.0)
     return (math.sqrt(b * b - a * c) - b) / a
 
