@@ -97,6 +97,8 @@ class EMDStarData(NamedTuple):
     friction: np.ndarray  #: scratch of the frictional two-body solver (twobody_friction.SCRATCH_ROWS, N_STATE)
     friction_table: np.ndarray  #: (n_c, n_s, 2) the hard-limit table of frictional contacts (:mod:`.friction_lookup`)
     friction_grid: np.ndarray  #: (8,) its geometry (n_c = 0: no table)
+    pair_values: np.ndarray  #: the pair table of the one species (:func:`.lookup.pair_restitution`)
+    pair_grid: np.ndarray  #: (lookup.PAIR_GRID,) its geometry (NaN species: no table)
 
 
 class Drive(NamedTuple):

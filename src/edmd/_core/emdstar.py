@@ -35,7 +35,7 @@ from .cells import cell_insert, cell_of_point, cell_remove, count_work, walk_aro
 from .jit import hot, jit, leaf
 from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTACT_SOFT, NB_LIST
 from .friction_lookup import G_NC, tabled_update
-from .lookup import matrix_of_restitution
+from .lookup import matrix_of_restitution, pair_restitution
 from .nblist import SQRT3, rebuild_list
 from .predict import INF, advance, box_shift, contact_time, flight, separation, wrap3
 from .schedule import repredict, set_pair, wrap_into_box
@@ -180,8 +180,9 @@ def smooth_map(i, j, P, mass, geo, fp, ip, emd):
     r"""The A event of the smooth contact ``(i, j)`` (both streamed to it): relocation, velocities, increments.
 
     Fills ``work[4:9]`` with ``r_iA, r_jA, V, Delta_i, Delta_j`` (``r_jA`` in the periodic image
-    closest to ``i``) from the matrix of restitution of physics.md §4.5–§4.7 (table, or the
-    direct solver outside the table's box or when no table is used) and the update of §4.6.
+    closest to ``i``) from the matrix of restitution of physics.md §4.5–§4.7 (the pair table of
+    a single species, :func:`.lookup.pair_restitution`; else the table, or the direct solver
+    outside the table's box or when no table is used) and the update of §4.6.
     Returns ``(t_c, lost, lost, v_n, v_t)``: the contact duration (NaN if the solver failed) and
     the kinetic energy the pair loses (twice: all of it is translational).
     """
@@ -191,10 +192,13 @@ def smooth_map(i, j, P, mass, geo, fp, ip, emd):
     ri, rj = P[i, L.R], P[j, L.R]
     sigma = ri + rj
     mu = mi * mj / (mi + mj)
-    phi, d, tc, eps, _tab = matrix_of_restitution(
-        ip[L.IP_EMD_MODEL], fp[L.FP_SOFT_A], fp[L.FP_SOFT_B], mu, ri * rj / sigma, sigma, vn, vt, ip[L.IP_EMD_TABLE] != 0,
-        emd.values, emd.table_grid, emd.central, emd.central_grid, fp[L.FP_EMD_RTOL], emd.weights, emd.solver,
-    )  # fmt: skip
+    model, ca, cb = ip[L.IP_EMD_MODEL], fp[L.FP_SOFT_A], fp[L.FP_SOFT_B]
+    phi, d, tc, eps = pair_restitution(model, ca, cb, mi, mj, ri, rj, vn, vt, emd.pair_values, emd.pair_grid, emd.weights)
+    if not tc == tc:  # another species, or beyond the pair table
+        phi, d, tc, eps, _tab = matrix_of_restitution(
+            model, ca, cb, mu, ri * rj / sigma, sigma, vn, vt, ip[L.IP_EMD_TABLE] != 0,
+            emd.values, emd.table_grid, emd.central, emd.central_grid, fp[L.FP_EMD_RTOL], emd.weights, emd.solver,
+        )  # fmt: skip
     if not tc == tc:
         return math.nan, 0.0, 0.0, vn, vt
     vn, vt = lab_frame_update(work[0], work[1], work[2], work[3], mi, mj, sigma, phi, d, eps, work[4:9])

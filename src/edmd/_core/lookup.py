@@ -206,6 +206,90 @@ def lookup_normalised(values, tg, u1, lam_v, b, W):
     return a0, a1, a2
 
 
+#: fields of a pair table's geometry (:func:`pair_restitution`): the species' mass and radius, the
+#: contact constants it was built for, then ``(map, a, x0, h, n)`` of the speed axis and of the b axis
+PG_MASS, PG_RADIUS, PG_A, PG_B, PG_SPEED, PG_B_AXIS = 0, 1, 2, 3, 4, 9
+PAIR_GRID = 14
+
+
+@leaf
+def _in_pair_table(pg, ca, cb, mi, mj, ri, rj):
+    """Whether the pair table ``pg`` was built for this pair (one species) and contact law (exact compares)."""
+    m, r = pg[PG_MASS], pg[PG_RADIUS]
+    return mi == m and mj == m and ri == r and rj == r and ca == pg[PG_A] and cb == pg[PG_B]
+
+
+@leaf
+def pair_restitution(model, ca, cb, mi, mj, ri, rj, vn, vt, pv, pg, W):
+    r"""Matrix of restitution of a pair of the one species a pair table was built for (physics.md §4.7).
+
+    For one species (and one contact law) both velocity-dependent coordinates :math:`u_1` and
+    :math:`\Lambda_v` of a table are functions of the impact speed :math:`v` alone, so the
+    matrix of restitution is a function of two numbers: a pair table holds it on a grid of
+    the speed axis (:math:`\delta_v` for Hertz, :math:`\Lambda_v` for the dashpot, mapped as the
+    three-dimensional table's axes) and the b axis, interpolated by degree-5 Lagrange
+    polynomials (36 nodes where a three-dimensional table takes 216, and no central values).
+    Its nodes hold :math:`(\psi_c g, \tau_c, \hat\varepsilon)` with :math:`g = (1-b^2)^{-1/10}`
+    (Hertz) or 1 (dashpot), from which (physics.md §4.5)
+
+    .. math::
+        \Phi = \Lambda_v b\,\psi_c g,\qquad D = 1 - \Lambda_v\,k\,u_1\sqrt{1-b^2}\,\hat\varepsilon,\qquad t_c = \tau_c t_s(v_n)
+
+    with :math:`k = 1` (Hertz) or 2 (dashpot). Returns ``(Phi, D, t_c, eps_hat)``; NaNs for another
+    pair or law, or outside the grid (the caller then takes :func:`matrix_of_restitution`).
+    """
+    nan = math.nan
+    if not _in_pair_table(pg, ca, cb, mi, mj, ri, rj):
+        return nan, nan, nan, nan
+    sigma = ri + rj
+    mu = mi * mj / (mi + mj)
+    reff = ri * rj / sigma
+    v = math.sqrt(vn * vn + vt * vt)
+    u1, lam_v = table_coordinates(model, ca, cb, mu, reff, sigma, v)
+    b = vt / v
+    q, a = PG_SPEED, PG_B_AXIS
+    nb = int(pg[a + 4])
+    k0 = _stencil(pg[q], pg[q + 1], u1 if model == MODEL_HERTZ else lam_v, pg[q + 2], pg[q + 3], int(pg[q + 4]), 5, W, 0)
+    k1 = _stencil(pg[a], pg[a + 1], b, pg[a + 2], pg[a + 3], nb, 5, W, 1)
+    if k0 < 0 or k1 < 0:
+        return nan, nan, nan, nan
+    acc = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    for i in range(6):
+        acc = _row18(acc, W[0, i], pv, ((k0 + i) * nb + k1) * N_OUT)
+    t0 = t1 = t2 = 0.0
+    for k in range(6):
+        w = W[1, k]
+        t0 += w * acc[N_OUT * k]
+        t1 += w * acc[N_OUT * k + 1]
+        t2 += w * acc[N_OUT * k + 2]
+    _c, _lam, ts, _ls = contact_scales(model, ca, cb, mu, reff, sigma, vn)
+    kc = u1 if model == MODEL_HERTZ else 2.0 * u1
+    return lam_v * b * t0, 1.0 - lam_v * kc * math.sqrt((1.0 - b) * (1.0 + b)) * t2, t1 * ts, t2
+
+
+@jit
+def pair_node_values(model, u1s, lvs, bs, rtol, out, K):
+    """Node values of a pair table (:func:`pair_restitution`) by direct solves at relative tolerance
+    ``rtol``: ``out[k, m] = (psi_c g, tau_c, eps_hat)`` at the speed node ``(u1s[k], lvs[k])`` and ``bs[m]``."""
+    for k in range(u1s.shape[0]):
+        for m in range(bs.shape[0]):
+            c, lam, tan_a = solver_parameters(model, u1s[k], lvs[k], bs[m])
+            _phi, _d, tau, eps, _xc, psi = solve_scaled(model, c, lam, tan_a, rtol, K)
+            g = ((1.0 - bs[m]) * (1.0 + bs[m])) ** -0.1 if model == MODEL_HERTZ else 1.0
+            out[k, m, 0] = psi * g
+            out[k, m, 1] = tau
+            out[k, m, 2] = eps if c > 0.0 else 1.0
+
+
+@jit
+def pair_restitution_many(model, ca, cb, mi, mj, ri, rj, vns, vts, pv, pg, out, W):
+    """:func:`pair_restitution` at many impacts; ``out[k] = (Phi, D, t_c, eps_hat)``."""
+    for k in range(vns.shape[0]):
+        r = pair_restitution(model, ca, cb, mi, mj, ri, rj, vns[k], vts[k], pv, pg, W)
+        for q in range(4):
+            out[k, q] = r[q]
+
+
 @jit
 def lookup(model, values, tg, ctab, cgeo, u1, lam_v, b, W):
     r"""Matrix of restitution from a table at table coordinates ``(u1, lam_v, b)`` (physics.md §4.5, §4.7).

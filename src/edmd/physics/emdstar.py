@@ -52,7 +52,7 @@ from .._core import twobody_friction as _tf
 from .._core.bundles import EMDStarData
 from .contact import ContactError, ContactModel, Hertz, LinearDashpot
 from .friction import Friction
-from .tables import RestitutionTable, default_table
+from .tables import NO_PAIR_TABLE, RestitutionTable, default_table, pair_table
 
 
 class EMDStarError(ValueError):
@@ -345,11 +345,13 @@ def _load_table(tables: str, model: str) -> RestitutionTable | None:
     return tab
 
 
-def emd_bundle(n: int, rule: EMDStar | None, pending=None, dim: int = 3) -> EMDStarData:
+def emd_bundle(n: int, rule: EMDStar | None, pending=None, dim: int = 3, species: tuple[float, float] | None = None) -> EMDStarData:
     """The ``emd`` bundle of :mod:`edmd._core.emdstar` for ``n`` particles (internal order).
 
     ``pending``: ``(dv (n, 3), t_b (n,), partner (n,))`` or ``None`` (nothing pending); ``dim``:
-    solid spheres (3) or disks (2) for the hard-limit table's inertia sum.
+    solid spheres (3) or disks (2) for the hard-limit table's inertia sum; ``species``: the
+    ``(mass, radius)`` that every particle has, if they are all alike (their contacts then take
+    the matrix of restitution from a pair table, :func:`~edmd.physics.tables.pair_table`).
     """
     if pending is None:
         pending = (np.zeros((n, 3)), np.full(n, np.inf), np.full(n, -1, np.int32))
@@ -364,7 +366,11 @@ def emd_bundle(n: int, rule: EMDStar | None, pending=None, dim: int = 3) -> EMDS
     if rule is not None and rule.friction_table:
         tangential = friction_table(rule.contact, rule.friction, 0.4 if dim == 3 else 0.5)
     pending = (np.ascontiguousarray(dv, float), np.ascontiguousarray(tb, float), np.ascontiguousarray(pj, np.int32))
-    return EMDStarData(*pending, values, tg, ctab, cgeo, *scratch, *tangential)
+    pair = NO_PAIR_TABLE
+    table = None if rule is None else rule.table()
+    if table is not None and species is not None and rule.friction is None:  # (frictional contacts are solved directly)
+        pair = pair_table(table, table.code, *rule.contact.constants(), *(float(x) for x in species))
+    return EMDStarData(*pending, values, tg, ctab, cgeo, *scratch, *tangential, *pair)
 
 
 __all__ = ["EMDStar", "EMDStarError", "FrictionTableWarning", "TABLE_CHOICES", "emd_bundle", "friction_table", "friction_table_misses", "sticking_beta"]

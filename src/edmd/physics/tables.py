@@ -458,6 +458,77 @@ def check_table(table: RestitutionTable, points: int = 10_000, seed: int = 0, sa
     return errors
 
 
+#: placeholder pair table: its species mass is NaN, so no pair matches (:func:`edmd._core.lookup.pair_restitution`)
+NO_PAIR_TABLE = (np.zeros(_lk.N_OUT), np.full(_lk.PAIR_GRID, np.nan))
+#: nodes of a pair table's speed axis per cell of the three-dimensional table that its curve crosses
+PAIR_NODES_PER_CELL = 2
+
+
+@functools.lru_cache(maxsize=16)
+def pair_table(table: RestitutionTable, code: int, a: float, b: float, mass: float, radius: float) -> tuple[np.ndarray, np.ndarray]:
+    r"""The matrix of restitution of one species' contacts as a table over impact speed and eccentricity (physics.md §4.7).
+
+    For spheres (or disks) of one mass and radius under one contact law (``code``, constants
+    ``(a, b)``), the damping and softness coordinates of ``table`` are functions of the impact
+    speed alone: :math:`\delta_v\propto v^{1/5}`, :math:`\Lambda_v\propto v^{4/5}` (Hertz), or a
+    constant :math:`\zeta_d` and :math:`\Lambda_v\propto v` (dashpot). Along that curve through
+    ``table``'s box the map is tabulated on a two-dimensional grid (speed axis: :math:`\delta_v`,
+    linear, or :math:`\Lambda_v`, mapped like ``table``'s softness axis; b axis: ``table``'s) by
+    direct solves at the nodes, :data:`PAIR_NODES_PER_CELL` speed nodes per cell of ``table``
+    crossed. :func:`edmd._core.lookup.pair_restitution` interpolates it at a sixth of the cost
+    of a three-dimensional lookup; impacts beyond the curve's part inside the box fall back as before.
+
+    Returns ``(values, grid)`` for the compiled core, :data:`NO_PAIR_TABLE` where there is none
+    (elastic contacts, whose three-dimensional lookup is exact, or a curve outside the box).
+
+    Example:
+        >>> import numpy as np
+        >>> from edmd._core import lookup as lk
+        >>> tab = default_table("hertz")
+        >>> pv, pg = pair_table(tab, tab.code, 1e4, 0.01, 1.0, 0.5)
+        >>> out = np.zeros((1, 4))
+        >>> lk.pair_restitution_many(tab.code, 1e4, 0.01, 1.0, 1.0, 0.5, 0.5, np.array([0.3]), np.array([0.1]), pv, pg, out, np.zeros(lk.SCRATCH_SHAPE))
+        >>> mu, reff, sigma = 0.5, 0.25, 1.0
+        >>> exact = tab.lookup(*lk.table_coordinates(tab.code, 1e4, 0.01, mu, reff, sigma, 0.1 ** 0.5), 0.1 / 0.1 ** 0.5)
+        >>> bool(abs(out[0, 3] - exact.eps_hat) < 1e-9)
+        True
+    """
+    if b == 0.0:
+        return NO_PAIR_TABLE
+    sigma = radius + radius
+    mu = mass * mass / (mass + mass)
+    reff = radius * radius / sigma
+    u1_1, lam_1 = _lk.table_coordinates(code, a, b, mu, reff, sigma, 1.0)  # at v = 1
+    tg = table.geometry
+    (d0, d1), (s0, s1) = table.box.damping, table.box.softness
+    shift = tg[6]
+    if code == MODEL_HERTZ:  # u1 = u1_1 v^(1/5), lam_v = lam_1 v^(4/5): the speed axis is u1 (linear)
+        lo, hi = max(d0, u1_1 * (s0 / lam_1) ** 0.25), min(d1, u1_1 * (s1 / lam_1) ** 0.25)
+        crossed = (hi - lo) / tg[3] + (math.log(lam_1 * (hi / u1_1) ** 4 + shift) - math.log(lam_1 * (lo / u1_1) ** 4 + shift)) / tg[8]
+        speed = (_lk.AX_LINEAR, 0.0, lo)
+    else:  # u1 = zeta_d for every speed, lam_v = lam_1 v: the speed axis is lam_v (mapped as the softness axis)
+        if not d0 <= u1_1 <= d1:
+            return NO_PAIR_TABLE
+        lo, hi = math.log(s0 + shift), math.log(s1 + shift)
+        crossed = (hi - lo) / tg[8]
+        speed = (_lk.AX_LOGSHIFT, shift, lo)
+    if not hi > lo:
+        return NO_PAIR_TABLE
+    n = max(int(math.ceil(PAIR_NODES_PER_CELL * crossed)) + 1, DEGREE + 1)
+    x = np.linspace(lo, hi, n)
+    if code == MODEL_HERTZ:
+        u1s, lvs = x, lam_1 * (x / u1_1) ** 4
+    else:
+        u1s, lvs = np.full(n, u1_1), np.clip(np.exp(x) - shift, s0, s1)
+    bs = table.nodes[2]
+    values = np.zeros((n, len(bs), _lk.N_OUT))
+    _lk.pair_node_values(code, u1s, lvs, bs, NODE_RTOL, values, np.zeros((13, 3)))
+    if not np.all(np.isfinite(values)):
+        return NO_PAIR_TABLE
+    grid = np.array([mass, radius, a, b, *speed, (hi - lo) / (n - 1), n, *tg[10:15]], float)
+    return values.reshape(-1), grid
+
+
 @functools.lru_cache(maxsize=None)
 def default_table(model) -> RestitutionTable:
     """The table shipped with edmd for ``model`` (``"dashpot"`` or ``"hertz"``), box :data:`DEFAULT_BOXES`.
@@ -474,4 +545,4 @@ def default_table(model) -> RestitutionTable:
         return RestitutionTable.load(p)
 
 
-__all__ = ["Box", "DEFAULT_BOXES", "RestitutionTable", "TableError", "build_table", "check_table", "default_table"]
+__all__ = ["Box", "DEFAULT_BOXES", "NO_PAIR_TABLE", "RestitutionTable", "TableError", "build_table", "check_table", "default_table", "pair_table"]

@@ -94,6 +94,14 @@ class EngineOptions:
 AUTO_THRESHOLD = {2: 0.6, 3: 0.35}
 
 
+def _species(state: State) -> tuple[float, float] | None:
+    """The ``(mass, radius)`` of every particle when they are all alike (else ``None``)."""
+    m, r = state.mass, state.radius
+    if m.size and m.min() == m.max() and r.min() == r.max():
+        return float(m[0]), float(r[0])
+    return None
+
+
 class EngineError(RuntimeError):
     """The event loop found an inconsistency (debug mode) or cannot go on."""
 
@@ -425,7 +433,7 @@ class Engine:
         for k in range(self.dim):
             image[:, k] = state.image[order, k]
         self.part = Particles(P, state.mass[order], *self._spins(state, order), image, np.zeros(n, np.int32), self._tc_times(state, order))
-        self.emd = emd_bundle(n if self.emd_rule is not None else 0, self.emd_rule, pending, self.dim)
+        self.emd = emd_bundle(n if self.emd_rule is not None else 0, self.emd_rule, pending, self.dim, _species(state))
         self.ev = new_events(n)
         self.pairs = new_pairs(n, captures)
         self._derive_captures = self.well is not None and state.captured_pairs is None
