@@ -59,6 +59,31 @@ def test_two_body_matches_newton(contact, speed, tables, tol, dim, rng):
             assert np.max(np.abs(s.velocity[k] - vel[k][:dim])) < tol * speed
 
 
+@pytest.mark.parametrize("contact, speed", CONTACTS, ids=[f"{c.name}-{i}" for i, (c, _s) in enumerate(CONTACTS)])
+def test_one_species_contacts_use_the_pair_table(contact, speed, dim, rng):
+    """Spheres of one mass and radius take the matrix of restitution from the pair table
+    (physics.tables.pair_table); their contacts reproduce a direct Cartesian integration to 1e-6,
+    as the three-dimensional table does for unlike pairs (test_two_body_matches_newton)."""
+    m, r = (1.0, 1.0), (0.5, 0.5)
+    for b in (0.0, 0.5, 0.9):
+        r0, v0 = random_contact(rng, dim, r, speed, b)
+        lead = 0.5 / speed
+        pos = [x - v * lead for x, v in zip(r0, v0)]
+        state = State(position=np.array(pos)[:, :dim], velocity=np.array(v0)[:, :dim], radius=r, mass=m, box=[40.0] * dim)
+        sim = Simulation(state, collision=EMDStar(contact))
+        assert tuple(sim.engine.emd.pair_grid[:2]) == (1.0, 0.5)
+        tc, _pos, _vel = direct_two_spheres(contact, m, r, r0, v0, np.zeros(3), 1.0)
+        tc, pos, vel = direct_two_spheres(contact, m, r, r0, v0, np.zeros(3), 3.0 * tc)
+        sim.run(until_time=lead + 3.0 * tc)
+        s = sim.state
+        assert sim.engine.emd_counters()["emd_contacts"] == 1 and not s.has_pending
+        for k in range(2):
+            assert np.max(np.abs(s.unwrapped_position[k] - pos[k][:dim])) < 1e-6
+            assert np.max(np.abs(s.velocity[k] - vel[k][:dim])) < 1e-6 * speed
+    unlike = State(position=[[0.0] * dim, [3.0] + [0.0] * (dim - 1)], velocity=[[0.0] * dim] * 2, radius=(0.5, 0.6), mass=1.0, box=[40.0] * dim)
+    assert math.isnan(Simulation(unlike, collision=EMDStar(contact)).engine.emd.pair_grid[0])
+
+
 def test_two_body_with_gravity(rng):
     """With gravity the pair falls with V + G t during the contact; B adds the increments (physics.md §4.6)."""
     contact = Hertz(young=1e6, poisson=0.3, A=1e-3)
