@@ -462,6 +462,18 @@ def check_table(table: RestitutionTable, points: int = 10_000, seed: int = 0, sa
 NO_PAIR_TABLE = (np.zeros(_lk.N_OUT), np.full(_lk.PAIR_GRID, np.nan))
 #: nodes of a pair table's speed axis per cell of the three-dimensional table that its curve crosses
 PAIR_NODES_PER_CELL = 2
+#: a pair table's b axis goes on beyond its table's (same map and spacing) up to this eccentricity
+#: (1 - b^2 ~ 1e-3 of the contacts of a gas lie beyond)
+PAIR_B_MAX = 1.0 - 5e-4
+
+
+def _pair_b_axis(table: RestitutionTable) -> tuple[tuple, np.ndarray]:
+    """A pair table's b axis: ``table``'s nodes and more at its spacing up to :data:`PAIR_B_MAX`."""
+    _kind, a, x0, h, _n = table.geometry[10:15]
+    n = int(math.floor((GRAZING * PAIR_B_MAX - math.log1p(-PAIR_B_MAX) - x0) / h)) + 1
+    bs = _grazing_inverse(x0 + h * np.arange(n))
+    bs[: len(table.nodes[2])] = table.nodes[2]
+    return (_lk.AX_GRAZING, a, x0, h, n), bs
 
 
 @functools.lru_cache(maxsize=16)
@@ -473,7 +485,8 @@ def pair_table(table: RestitutionTable, code: int, a: float, b: float, mass: flo
     speed alone: :math:`\delta_v\propto v^{1/5}`, :math:`\Lambda_v\propto v^{4/5}` (Hertz), or a
     constant :math:`\zeta_d` and :math:`\Lambda_v\propto v` (dashpot). Along that curve through
     ``table``'s box the map is tabulated on a two-dimensional grid (speed axis: :math:`\delta_v`,
-    linear, or :math:`\Lambda_v`, mapped like ``table``'s softness axis; b axis: ``table``'s) by
+    linear, or :math:`\Lambda_v`, mapped like ``table``'s softness axis; b axis: ``table``'s,
+    carried on towards grazing contacts, :data:`PAIR_B_MAX`) by
     direct solves at the nodes, :data:`PAIR_NODES_PER_CELL` speed nodes per cell of ``table``
     crossed. :func:`edmd._core.lookup.pair_restitution` interpolates it at a sixth of the cost
     of a three-dimensional lookup; impacts beyond the curve's part inside the box fall back as before.
@@ -520,12 +533,10 @@ def pair_table(table: RestitutionTable, code: int, a: float, b: float, mass: flo
         u1s, lvs = x, lam_1 * (x / u1_1) ** 4
     else:
         u1s, lvs = np.full(n, u1_1), np.clip(np.exp(x) - shift, s0, s1)
-    bs = table.nodes[2]
+    b_axis, bs = _pair_b_axis(table)
     values = np.zeros((n, len(bs), _lk.N_OUT))
     _lk.pair_node_values(code, u1s, lvs, bs, NODE_RTOL, values, np.zeros((13, 3)))
-    if not np.all(np.isfinite(values)):
-        return NO_PAIR_TABLE
-    grid = np.array([mass, radius, a, b, *speed, (hi - lo) / (n - 1), n, *tg[10:15]], float)
+    grid = np.array([mass, radius, a, b, *speed, (hi - lo) / (n - 1), n, *b_axis], float)
     return values.reshape(-1), grid
 
 
