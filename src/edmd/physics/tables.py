@@ -488,7 +488,7 @@ def pair_table(table: RestitutionTable, code: int, a: float, b: float, mass: flo
     linear, or :math:`\Lambda_v`, mapped like ``table``'s softness axis; b axis: ``table``'s,
     carried on towards grazing contacts, :data:`PAIR_B_MAX`) by
     direct solves at the nodes, :data:`PAIR_NODES_PER_CELL` speed nodes per cell of ``table``
-    crossed. :func:`edmd._core.lookup.pair_restitution` interpolates it at a sixth of the cost
+    crossed. :func:`edmd._core.lookup.pair_restitution` interpolates it at a quarter of the cost
     of a three-dimensional lookup; impacts beyond the curve's part inside the box fall back as before.
 
     Returns ``(values, grid)`` for the compiled core, :data:`NO_PAIR_TABLE` where there is none
