@@ -18,7 +18,11 @@ contact; DEM: the same laws; spins at the same temperature as the translation at
 results in ``results/emdstar_friction.json``; ``--friction-table`` takes the tangential impulse
 from the hard-limit table instead (docs/physics.md §4.12). ``--young Y`` sets a harder or softer
 material with the same restitution (A scaled as Y^(-2/5), so the damping at a given speed is
-the same; the softness Lambda scales as Y^(-2/5), the contact duration too).
+the same; the softness Lambda scales as Y^(-2/5), the contact duration too). ``--alternate K``
+measures eMD*'s collision rate relative to hard spheres the way ``bench_paired.py`` pairs builds:
+both from the same state in one process (20 events per particle first), then K rounds of
+alternating chunks of 30 events per particle, CPU time of each chunk (short wall-time runs of a
+shared host scatter by tens of per cent).
 
 Usage::
 
@@ -26,6 +30,7 @@ Usage::
     python benchmarks/bench_emdstar.py --n 4000 --eta 0.01 0.05 --repeats 1
     python benchmarks/bench_emdstar.py --friction 0.3 --eta 0.05 --out benchmarks/results/emdstar_friction.json
     python benchmarks/bench_emdstar.py --friction 0.3 --friction-table --young 1e9 --eta 0.05 --n 4000
+    taskset -c 1 python benchmarks/bench_emdstar.py --eta 0.01 0.05 --alternate 8 --out benchmarks/results/emdstar_alternate.json
 """
 
 from __future__ import annotations
@@ -104,6 +109,30 @@ def bench(n: int, eta: float, repeats: int, friction=None, table: bool = False, 
     return row
 
 
+def alternate(n: int, eta: float, rounds: int) -> dict:
+    """eMD* and hard spheres from the same state in this process, alternating chunks (``--alternate``)."""
+    state = gas(n, eta)
+    sims = {"emd": edmd.Simulation(state, collision=EMDStar(contact_law())), "hard_spheres": edmd.Simulation(state)}
+    for sim in sims.values():
+        sim.run(max_events=20 * n)
+    rates = {name: [] for name in sims}
+    for r in range(rounds):
+        for name in sorted(sims, reverse=r % 2 == 1):
+            sim = sims[name]
+            c0, t0 = sim.collisions, time.process_time()
+            sim.run(max_events=30 * n)
+            rates[name].append((sim.collisions - c0) / (time.process_time() - t0))
+    ratios = [e / h for e, h in zip(rates["emd"], rates["hard_spheres"])]
+    row = {"n": n, "eta": eta, "rounds": rounds, **{f"{name}_rates": v for name, v in rates.items()}}
+    row.update(ratio_median=statistics.median(ratios), ratio_min=min(ratios), ratio_max=max(ratios))
+    print(
+        f"N={n} eta={eta}: eMD* {max(rates['emd']) / 1e6:.3f} / {statistics.median(rates['emd']) / 1e6:.3f}, hard spheres "
+        f"{max(rates['hard_spheres']) / 1e6:.3f} / {statistics.median(rates['hard_spheres']) / 1e6:.3f} M coll/s (best / median); "
+        f"eMD* / hard spheres per round {row['ratio_median']:.3f} ({row['ratio_min']:.3f}-{row['ratio_max']:.3f})"
+    )
+    return row
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--n", type=int, default=10_000)
@@ -112,8 +141,12 @@ def main():
     parser.add_argument("--friction", type=float, default=None, metavar="MU", help="Hertz-Mindlin friction with this coefficient")
     parser.add_argument("--friction-table", action="store_true", help="frictional contacts from the hard-limit table (docs/physics.md 4.12)")
     parser.add_argument("--young", type=float, default=1e8, help="Young's modulus in Pa (A scaled to keep e_n(v))")
+    parser.add_argument("--alternate", type=int, default=0, metavar="K", help="only eMD* / hard spheres: K rounds of alternating chunks in one process")
     parser.add_argument("--out", default="benchmarks/results/emdstar.json")
     args = parser.parse_args()
+    if args.alternate:
+        write_results(args.out, args, [alternate(args.n, eta, args.alternate) for eta in args.eta])
+        return
     if args.friction_table and args.friction is None:
         parser.error("--friction-table needs --friction MU")
     friction = None if args.friction is None else edmd.Friction(mu=args.friction, law="mindlin")
