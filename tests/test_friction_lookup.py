@@ -16,7 +16,7 @@ from edmd._core.twobody import dashpot_central
 from edmd.physics.contact import Hertz, LinearDashpot
 from edmd.physics.emdstar import EMDStar, EMDStarError, FrictionTableWarning, friction_table
 from edmd.physics.friction import Friction
-from edmd.physics.tables import default_table
+from edmd.physics.tables import default_table, pair_table
 
 PAIRINGS = {
     "dashpot-linear": (LinearDashpot(k=1e4, gamma=10.0), Friction(mu=0.3, law="linear", stiffness=2e3)),
@@ -104,10 +104,11 @@ def _both_maps(contact, friction, dim, contact_data, inertia=None):
     q = 0.4 if dim == 3 else 0.5
     I = inertia if inertia is not None else q * 0.25
     values, grid = friction_table(contact, friction, q)
-    v, tg, ctab, cgeo = default_table(contact.name).core()
-    smooth = (True, v, np.array(tg), ctab, np.array(cgeo))
-    code, kt, xt, mu = friction.constants(contact)
+    tab = default_table(contact.name)
+    v, tg, ctab, cgeo = tab.core()
     a, b = contact.constants()
+    smooth = (True, v, np.array(tg), ctab, np.array(cgeo), *pair_table(tab, tab.code, a, b, 1.0, 0.5))  # (the smooth map of the species)
+    code, kt, xt, mu = friction.constants(contact)
     exact, tabled = np.zeros((7, 3)), np.zeros((7, 3))
     args = (contact.code, a, b, code, kt, xt, mu, 1.0, 1.0, 0.5, 0.5, I, I, *contact_data)
     tc_exact = tf.frictional_update(*args, 1e-10, _scratch(), exact)

@@ -35,7 +35,7 @@ from .cells import cell_insert, cell_of_point, cell_remove, count_work, walk_aro
 from .jit import hot, jit, leaf
 from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTACT_SOFT, NB_LIST
 from .friction_lookup import G_NC, tabled_update
-from .lookup import matrix_of_restitution, pair_restitution
+from .lookup import species_restitution
 from .nblist import SQRT3, rebuild_list
 from .predict import INF, advance, box_shift, contact_time, flight, separation, wrap3
 from .schedule import repredict, set_pair, wrap_into_box
@@ -176,6 +176,12 @@ def _load_pair(i, j, P, geo, work):
 
 
 @leaf
+def _smooth_tables(ip, emd):
+    """The tables of the smooth map (:func:`.lookup.species_restitution`): whether to use the table, the table, the pair table."""
+    return ip[L.IP_EMD_TABLE] != 0, emd.values, emd.table_grid, emd.central, emd.central_grid, emd.pair_values, emd.pair_grid
+
+
+@leaf
 def smooth_map(i, j, P, mass, geo, fp, ip, emd):
     r"""The A event of the smooth contact ``(i, j)`` (both streamed to it): relocation, velocities, increments.
 
@@ -192,13 +198,9 @@ def smooth_map(i, j, P, mass, geo, fp, ip, emd):
     ri, rj = P[i, L.R], P[j, L.R]
     sigma = ri + rj
     mu = mi * mj / (mi + mj)
-    model, ca, cb = ip[L.IP_EMD_MODEL], fp[L.FP_SOFT_A], fp[L.FP_SOFT_B]
-    phi, d, tc, eps = pair_restitution(model, ca, cb, mi, mj, ri, rj, vn, vt, emd.pair_values, emd.pair_grid, emd.weights)
-    if not tc == tc:  # another species, or beyond the pair table
-        phi, d, tc, eps, _tab = matrix_of_restitution(
-            model, ca, cb, mu, ri * rj / sigma, sigma, vn, vt, ip[L.IP_EMD_TABLE] != 0,
-            emd.values, emd.table_grid, emd.central, emd.central_grid, fp[L.FP_EMD_RTOL], emd.weights, emd.solver,
-        )  # fmt: skip
+    phi, d, tc, eps = species_restitution(
+        ip[L.IP_EMD_MODEL], fp[L.FP_SOFT_A], fp[L.FP_SOFT_B], mi, mj, ri, rj, vn, vt, *_smooth_tables(ip, emd), fp[L.FP_EMD_RTOL], emd.weights, emd.solver,
+    )  # fmt: skip
     if not tc == tc:
         return math.nan, 0.0, 0.0, vn, vt
     vn, vt = lab_frame_update(work[0], work[1], work[2], work[3], mi, mj, sigma, phi, d, eps, work[4:9])
@@ -224,7 +226,7 @@ def frictional_map(i, j, P, mass, omega, inertia, geo, fp, ip, emd):
     law, kt, xt, muf = ip[L.IP_EMD_FRICTION], fp[L.FP_FRICTION_KT], fp[L.FP_FRICTION_XT], fp[L.FP_FRICTION_MU]
     tc = math.nan
     if emd.friction_grid[G_NC] > 0.0:
-        smooth = (ip[L.IP_EMD_TABLE] != 0, emd.values, emd.table_grid, emd.central, emd.central_grid)
+        smooth = _smooth_tables(ip, emd)
         tc = tabled_update(
             model, ca, cb, law, kt, xt, muf, mi, mj, P[i, L.R], P[j, L.R], inertia[i], inertia[j], work[0], work[1], work[2], work[3],
             omega[i], omega[j], smooth, emd.friction_table, emd.friction_grid, fp[L.FP_EMD_RTOL], emd.weights, emd.solver, work[4:11],

@@ -24,7 +24,7 @@ import math
 
 from .contact import contact_scales
 from .jit import jit, leaf
-from .lookup import matrix_of_restitution
+from .lookup import species_restitution
 from .twobody import collision_frame, lab_frame_update
 from .twobody_friction import (
     I_TAU, INFO_AT, N_STATE, P, P_C, P_KAPPA1, P_KAPPA2, P_KT, P_LAM, P_LAMBDA1, P_LAMBDA2, P_LAW, P_MODEL, P_MU, P_XT, ROW_PRM,
@@ -140,7 +140,7 @@ def tabled_update(model, ca, cb, law, kt, xt, muf, m1, m2, R1, R2, I1, I2, r1, r
 
     As :func:`.twobody_friction.frictional_update` (the same arguments and ``out (7, 3)``), to
     first order in :math:`\Lambda` (docs/physics.md §4.12): the smooth map of §4.5–4.6
-    (``smooth = (use_table, values, tg, ctab, cgeo)`` of :func:`.lookup.matrix_of_restitution`)
+    (``smooth = (use_table, values, tg, ctab, cgeo, pair_values, pair_grid)`` of :func:`.lookup.species_restitution`)
     relocates the pair and restitutes the normal motion, and the tangential impulse
     :math:`\mathbf J = -\mu v_nj\hat{\mathbf s}` on particle 1 at the contact point,
 
@@ -176,8 +176,7 @@ def tabled_update(model, ca, cb, law, kt, xt, muf, m1, m2, R1, R2, I1, I2, r1, r
     j, i_rate = lookup(values, grid, c, speed / vn)
     if not j == j:
         return math.nan
-    use_table, tvalues, tg, ctab, cgeo = smooth
-    phi, d, tc, eps, _tab = matrix_of_restitution(model, ca, cb, mu, reff, sigma, vn, vt, use_table, tvalues, tg, ctab, cgeo, rtol, W, K)
+    phi, d, tc, eps = species_restitution(model, ca, cb, m1, m2, R1, R2, vn, vt, *smooth, rtol, W, K)
     if not tc == tc:
         return math.nan
     lab_frame_update(r1, r2, v1, v2, m1, m2, sigma, phi, d, eps, out[0:5])

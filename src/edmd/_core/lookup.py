@@ -341,6 +341,18 @@ def matrix_of_restitution(model, a, b, mu, reff, sigma, vn, vt, use_table, value
     return r[0], r[1], r[2] * ts, eps, False
 
 
+@leaf
+def species_restitution(model, ca, cb, mi, mj, ri, rj, vn, vt, use_table, values, tg, ctab, cgeo, pv, pg, rtol, W, K):
+    """``(Phi, D, t_c, eps_hat)`` of a physical impact: from the pair table ``(pv, pg)`` where it serves
+    the pair (:func:`pair_restitution`), else from :func:`matrix_of_restitution` (NaN ``t_c``: the solver failed)."""
+    phi, d, tc, eps = pair_restitution(model, ca, cb, mi, mj, ri, rj, vn, vt, pv, pg, W)
+    if tc == tc:
+        return phi, d, tc, eps
+    sigma = ri + rj
+    phi, d, tc, eps, _tab = matrix_of_restitution(model, ca, cb, mi * mj / (mi + mj), ri * rj / sigma, sigma, vn, vt, use_table, values, tg, ctab, cgeo, rtol, W, K)
+    return phi, d, tc, eps
+
+
 @jit
 def direct_many(model, u1s, lvs, bs, rtol, out, K):
     """Direct solves at table coordinates ``(u1s[k], lvs[k], bs[k])``; ``out[k]`` as in :func:`lookup_many`."""

@@ -368,7 +368,7 @@ def emd_bundle(n: int, rule: EMDStar | None, pending=None, dim: int = 3, species
     pending = (np.ascontiguousarray(dv, float), np.ascontiguousarray(tb, float), np.ascontiguousarray(pj, np.int32))
     pair = NO_PAIR_TABLE
     table = None if rule is None else rule.table()
-    if table is not None and species is not None and rule.friction is None:  # (frictional contacts are solved directly)
+    if table is not None and species is not None and (rule.friction is None or rule.friction_table):  # (other frictional contacts are solved)
         pair = pair_table(table, table.code, *rule.contact.constants(), *(float(x) for x in species))
     return EMDStarData(*pending, values, tg, ctab, cgeo, *scratch, *tangential, *pair)
 
