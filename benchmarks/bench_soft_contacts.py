@@ -5,7 +5,9 @@
   log-uniform in [1e-6, max]), called from a compiled loop: microseconds per contact.
 * **Table lookup**: the compiled interpolation at random points of the box, from table
   coordinates (:func:`edmd._core.lookup.lookup`) and from physical impact data including the
-  table coordinates (:func:`edmd._core.lookup.matrix_of_restitution`): nanoseconds per lookup.
+  table coordinates (:func:`edmd._core.lookup.matrix_of_restitution`): nanoseconds per lookup;
+  for a pair of one species, also from its pair table (:func:`edmd._core.lookup.pair_restitution`,
+  physics.md §4.7) against the three-dimensional table on the same impacts.
 * **Table accuracy**: :func:`edmd.physics.tables.check_table` on 1e4 points, log and linear softness.
 * **DEM**: :class:`edmd.DEMSimulation`, 3D dilute gases (fcc start, kT = 1, sigma = m = 1),
   dashpot (k = 1e4, e_n = 0.9) and Hertz (Y = 1e5, nu = 0.3, A = 1e-4), 50 steps per contact:
@@ -35,7 +37,7 @@ from numba import njit
 import edmd
 from edmd._core import lookup as lk
 from edmd.physics.contact import Hertz, LinearDashpot
-from edmd.physics.tables import check_table, default_table
+from edmd.physics.tables import check_table, default_table, pair_table
 
 CONTACTS = {"dashpot": LinearDashpot.from_restitution(0.9, k=1e4, mass=1.0), "hertz": Hertz(young=1e5, poisson=0.3, A=1e-4)}
 
@@ -55,6 +57,15 @@ def _physical_lookups(model, a, bb, mu, reff, sigma, vn, vt, values, tg, ctab, c
     for k in range(vn.shape[0]):
         r = lk.matrix_of_restitution(model, a, bb, mu, reff, sigma, vn[k], vt[k], True, values, tg, ctab, cgeo, 1e-12, W, K)
         s += r[0] + r[2]
+    return s
+
+
+@njit(cache=True)
+def _pair_lookups(model, a, bb, m, r, vn, vt, pv, pg, W):
+    s = 0.0
+    for k in range(vn.shape[0]):
+        phi, _d, tc, _eps = lk.pair_restitution(model, a, bb, m, m, r, r, vn[k], vt[k], pv, pg, W)
+        s += phi + tc
     return s
 
 
@@ -98,9 +109,21 @@ def bench_lookup(model: str, points: int, repeats: int) -> dict:
     K = np.zeros((13, 3))
     _physical_lookups(tab.code, a, bb, mu, reff, sigma, vn[:10], vt[:10], flat, tg, ctab, cgeo, W, K)
     ns_phys = [t / points * 1e9 for t in timed(lambda: _physical_lookups(tab.code, a, bb, mu, reff, sigma, vn, vt, flat, tg, ctab, cgeo, W, K), repeats)]
+    # one species (m = 1, R = 0.5): the pair table against the three-dimensional table, same impacts
+    pv, pg = pair_table(tab, tab.code, a, bb, 1.0, 0.5)
+    inside = np.zeros((points, 4))
+    lk.pair_restitution_many(tab.code, a, bb, 1.0, 1.0, 0.5, 0.5, vn, vt, pv, pg, inside, W)
+    vn, vt = vn[np.isfinite(inside[:, 2])], vt[np.isfinite(inside[:, 2])]  # (impacts its grid covers)
+    _pair_lookups(tab.code, a, bb, 1.0, 0.5, vn[:10], vt[:10], pv, pg, W)
+    ns_pair = [t / vn.size * 1e9 for t in timed(lambda: _pair_lookups(tab.code, a, bb, 1.0, 0.5, vn, vt, pv, pg, W), repeats)]
+    ns_same = [t / vn.size * 1e9 for t in timed(lambda: _physical_lookups(tab.code, a, bb, 0.5, 0.25, 1.0, vn, vt, flat, tg, ctab, cgeo, W, K), repeats)]
     return {
         "model": model,
         "points": points,
+        "ns_per_pair_table_lookup": statistics.median(ns_pair),
+        "ns_per_table_lookup_same_species": statistics.median(ns_same),
+        "pair_table_shape": [int(pg[8]), int(pg[13])],
+        "pair_table_impacts": int(vn.size),
         "ns_per_lookup": statistics.median(ns),
         "ns_per_lookup_all": ns,
         "ns_per_physical_lookup": statistics.median(ns_phys),
@@ -155,6 +178,7 @@ def main(argv=None):
         r = bench_lookup(model, 10 * args.points, args.repeats)
         results["lookup"].append(r)
         print(f"{model}: table lookup {r['ns_per_lookup']:.0f} ns, from physical impact data {r['ns_per_physical_lookup']:.0f} ns", flush=True)
+        print(f"{model}: one species, pair table {r['ns_per_pair_table_lookup']:.0f} ns, table {r['ns_per_table_lookup_same_species']:.0f} ns ({r['pair_table_impacts']} impacts)", flush=True)
         r = bench_accuracy(model, 10_000)
         results["accuracy"].append(r)
         print(f"{model}: table max relative error {r['max_rel_error_log']:.2e} (log softness), {r['max_rel_error_linear']:.2e} (linear)", flush=True)
