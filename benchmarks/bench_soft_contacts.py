@@ -110,7 +110,7 @@ def bench_lookup(model: str, points: int, repeats: int) -> dict:
     _physical_lookups(tab.code, a, bb, mu, reff, sigma, vn[:10], vt[:10], flat, tg, ctab, cgeo, W, K)
     ns_phys = [t / points * 1e9 for t in timed(lambda: _physical_lookups(tab.code, a, bb, mu, reff, sigma, vn, vt, flat, tg, ctab, cgeo, W, K), repeats)]
     # one species (m = 1, R = 0.5): the pair table against the three-dimensional table, same impacts
-    pv, pg = pair_table(tab, tab.code, a, bb, 1.0, 0.5)
+    pv, pg = pair_table(tab, tab.code, a, bb, 1.0, 0.5, 1.0, 0.5)
     inside = np.zeros((points, 4))
     lk.pair_restitution_many(tab.code, a, bb, 1.0, 1.0, 0.5, 0.5, vn, vt, pv, pg, inside, W)
     vn, vt = vn[np.isfinite(inside[:, 2])], vt[np.isfinite(inside[:, 2])]  # (impacts its grid covers)
@@ -122,7 +122,7 @@ def bench_lookup(model: str, points: int, repeats: int) -> dict:
         "points": points,
         "ns_per_pair_table_lookup": statistics.median(ns_pair),
         "ns_per_table_lookup_same_species": statistics.median(ns_same),
-        "pair_table_shape": [int(pg[8]), int(pg[13])],
+        "pair_table_shape": [int(pg[0, lk.PG_SPEED + 4]), int(pg[0, lk.PG_B_AXIS + 4])],
         "pair_table_impacts": int(vn.size),
         "ns_per_lookup": statistics.median(ns),
         "ns_per_lookup_all": ns,

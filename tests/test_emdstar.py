@@ -71,7 +71,7 @@ def test_one_species_contacts_use_the_pair_table(contact, speed, dim, rng):
         pos = [x - v * lead for x, v in zip(r0, v0)]
         state = State(position=np.array(pos)[:, :dim], velocity=np.array(v0)[:, :dim], radius=r, mass=m, box=[40.0] * dim)
         sim = Simulation(state, collision=EMDStar(contact))
-        assert tuple(sim.engine.emd.pair_grid[:2]) == (1.0, 0.5)
+        assert sim.engine.emd.pair_grid[:, :4].tolist() == [[1.0, 0.5, 1.0, 0.5]]
         tc, _pos, _vel = direct_two_spheres(contact, m, r, r0, v0, np.zeros(3), 1.0)
         tc, pos, vel = direct_two_spheres(contact, m, r, r0, v0, np.zeros(3), 3.0 * tc)
         sim.run(until_time=lead + 3.0 * tc)
@@ -80,8 +80,10 @@ def test_one_species_contacts_use_the_pair_table(contact, speed, dim, rng):
         for k in range(2):
             assert np.max(np.abs(s.unwrapped_position[k] - pos[k][:dim])) < 1e-6
             assert np.max(np.abs(s.velocity[k] - vel[k][:dim])) < 1e-6 * speed
-    unlike = State(position=[[0.0] * dim, [3.0] + [0.0] * (dim - 1)], velocity=[[0.0] * dim] * 2, radius=(0.5, 0.6), mass=1.0, box=[40.0] * dim)
-    assert math.isnan(Simulation(unlike, collision=EMDStar(contact)).engine.emd.pair_grid[0])
+    two = State(position=[[0.0] * dim, [3.0] + [0.0] * (dim - 1)], velocity=[[0.0] * dim] * 2, radius=(0.5, 0.6), mass=1.0, box=[40.0] * dim)
+    assert Simulation(two, collision=EMDStar(contact)).engine.emd.pair_grid[:, :4].tolist() == [[1.0, 0.5, 1.0, 0.5], [1.0, 0.5, 1.0, 0.6], [1.0, 0.6, 1.0, 0.6]]
+    many = State(position=[[3.0 * k] + [0.0] * (dim - 1) for k in range(4)], velocity=[[0.0] * dim] * 4, radius=(0.5, 0.6, 0.7, 0.8), mass=1.0, box=[40.0] * dim)
+    assert math.isnan(Simulation(many, collision=EMDStar(contact)).engine.emd.pair_grid[0, 0])  # (more species than PAIR_SPECIES)
 
 
 def test_two_body_with_gravity(rng):

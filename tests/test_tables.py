@@ -19,7 +19,7 @@ from edmd._core.contact import MODEL_HERTZ
 from edmd._core.twobody import dashpot_central
 from edmd.app.cli import app
 from edmd.physics.contact import Hertz, LinearDashpot
-from edmd.physics.tables import DEFAULT_BOXES, NO_PAIR_TABLE, Box, RestitutionTable, TableError, build_table, check_table, default_table, pair_table
+from edmd.physics.tables import DEFAULT_BOXES, NO_PAIR_TABLE, PAIR_SPECIES, Box, RestitutionTable, TableError, build_table, check_table, default_table, pair_table, pair_tables
 from edmd.physics.twobody import collide, solve
 
 SMALL_BOX = Box((0.0, 0.3), (0.0, 0.02), (0.0, 0.9))
@@ -153,61 +153,70 @@ def test_compiled_entry_point_uses_table_or_solver():
 PAIR_LAWS = [Hertz(young=1e7, poisson=0.3, A=2e-4), Hertz(young=1e9, poisson=0.3, A=2e-6), LinearDashpot(k=1e4, gamma=3.0), LinearDashpot(k=500.0, gamma=8.0)]
 
 
-def _pair_speed_limit(contact, m, r):
-    """The largest impact speed whose table coordinates lie in the default box (one species)."""
+def _pair_speed_limit(contact, m1, r1, m2, r2):
+    """The largest impact speed whose table coordinates lie in the default box (a pair of species)."""
     tab = default_table(contact.name)
-    u1, lam = lk.table_coordinates(tab.code, *contact.constants(), m / 2, r / 2, 2 * r, 1.0)
+    u1, lam = lk.table_coordinates(tab.code, *contact.constants(), m1 * m2 / (m1 + m2), r1 * r2 / (r1 + r2), r1 + r2, 1.0)
     (_d0, d1), (_s0, s1) = tab.box.damping, tab.box.softness
     if tab.code == MODEL_HERTZ:  # u1 ~ v^(1/5), lam ~ v^(4/5)
         return min((d1 / u1) ** 5, (s1 / lam) ** 1.25)
     return s1 / lam
 
 
+@pytest.mark.parametrize("species", [(1.0, 0.5, 1.0, 0.5), (1.0, 0.5, 2.5, 0.8)], ids=["like", "unlike"])
 @pytest.mark.parametrize("contact", PAIR_LAWS, ids=[f"{c.name}-{i}" for i, c in enumerate(PAIR_LAWS)])
-def test_pair_table_matches_the_direct_solver(contact):
+def test_pair_table_matches_the_direct_solver(contact, species):
     """The pair table of one species (physics.md §4.7) reproduces the direct solver to 1e-7 over
     the speeds whose coordinates lie in the default box, and eccentricities up to 0.999 beyond the
     box's 0.99 (measured: <= 3.5e-8; the three-dimensional table's acceptance is 1e-6), and gives NaN
     beyond them (b = 0.9999 > PAIR_B_MAX), where the caller falls back."""
-    m, r = 1.0, 0.5
+    m1, r1, m2, r2 = species
     tab = default_table(contact.name)
     a, b = contact.constants()
-    pv, pg = pair_table(tab, tab.code, a, b, m, r)
-    assert pg[0] == m and pg[1] == r
-    v_max = _pair_speed_limit(contact, m, r)
+    pv, pg = pair_table(tab, tab.code, a, b, *species)
+    assert pg[0, :4].tolist() == list(species)
+    v_max = _pair_speed_limit(contact, *species)
     rng = np.random.default_rng(11)
     v = v_max * np.concatenate([10.0 ** rng.uniform(-5, 0, 150) * (1 - 1e-9), rng.uniform(1.001, 2, 20), np.full(10, 0.5)])
     ecc = np.concatenate([rng.uniform(0, 0.99, 100), 1.0 - 10.0 ** rng.uniform(-3, -2, 70), np.full(10, 0.9999)])
     vn, vt = v * np.sqrt(1 - ecc * ecc), v * ecc
     got = np.zeros((v.size, 4))
-    lk.pair_restitution_many(tab.code, a, b, m, m, r, r, vn, vt, pv, pg, got, np.zeros(lk.SCRATCH_SHAPE))
+    lk.pair_restitution_many(tab.code, a, b, m2, m1, r2, r1, vn, vt, pv, pg, got, np.zeros(lk.SCRATCH_SHAPE))  # (either order)
     inside = np.arange(v.size) < 150
     assert np.all(np.isnan(got[~inside])), "beyond the box: NaN (the caller falls back)"
     assert np.all(np.isfinite(got[inside]))
     for k in np.flatnonzero(inside):
-        ref = collide(contact, m, m, r, r, vn[k], vt[k])
+        ref = collide(contact, m1, m2, r1, r2, vn[k], vt[k])
         assert got[k, 0] == pytest.approx(ref.Phi, rel=1e-7, abs=1e-300)
         assert 1.0 - got[k, 1] == pytest.approx(1.0 - ref.D, rel=1e-7)
         assert got[k, 2] == pytest.approx(ref.t_c, rel=1e-7)
         assert got[k, 3] == pytest.approx(ref.eps_hat, rel=1e-7)
 
 
-def test_pair_table_serves_its_species_and_law_only():
-    """Another mass, radius or contact law gets NaN (the three-dimensional table then serves it);
-    elastic laws, whose three-dimensional lookup is exact, get no pair table."""
+def test_pair_tables_serve_their_species_and_law_only():
+    """Joined pair tables of two species serve the three pairs they were built for, each with its
+    own table; another mass, radius or contact law gets NaN (the three-dimensional table then
+    serves it); elastic laws, whose three-dimensional lookup is exact, get no pair table."""
     contact = Hertz(young=1e7, poisson=0.3, A=2e-4)
     tab = default_table("hertz")
     a, b = contact.constants()
-    pv, pg = pair_table(tab, tab.code, a, b, 1.0, 0.5)
+    species = [(1.0, 0.5), (2.0, 0.7)]
+    pv, pg = pair_tables(tab, tab.code, a, b, species)
     W = np.zeros(lk.SCRATCH_SHAPE)
-    assert math.isfinite(lk.pair_restitution(tab.code, a, b, 1.0, 1.0, 0.5, 0.5, 0.5, 0.2, pv, pg, W)[2])
-    for mi, mj, ri, rj, aa, bb in [(1.0, 2.0, 0.5, 0.5, a, b), (1.0, 1.0, 0.5, 0.6, a, b), (1.0, 1.0, 0.5, 0.5, 2 * a, b), (1.0, 1.0, 0.5, 0.5, a, 2 * b)]:
+    for (mi, ri), (mj, rj) in [(species[0], species[0]), (species[0], species[1]), (species[1], species[0]), (species[1], species[1])]:
+        one = pair_table(tab, tab.code, a, b, mi, ri, mj, rj)
+        assert lk.pair_restitution(tab.code, a, b, mi, mj, ri, rj, 0.5, 0.2, pv, pg, W) == lk.pair_restitution(tab.code, a, b, mi, mj, ri, rj, 0.5, 0.2, *one, W)
+        assert math.isfinite(lk.pair_restitution(tab.code, a, b, mi, mj, ri, rj, 0.5, 0.2, pv, pg, W)[2])
+    for mi, mj, ri, rj, aa, bb in [(1.0, 3.0, 0.5, 0.5, a, b), (1.0, 1.0, 0.5, 0.6, a, b), (1.0, 1.0, 0.5, 0.5, 2 * a, b), (1.0, 1.0, 0.5, 0.5, a, 2 * b)]:
         assert math.isnan(lk.pair_restitution(tab.code, aa, bb, mi, mj, ri, rj, 0.5, 0.2, pv, pg, W)[2])
-    assert pair_table(tab, tab.code, a, 0.0, 1.0, 0.5) is NO_PAIR_TABLE
+    assert pair_table(tab, tab.code, a, 0.0, 1.0, 0.5, 1.0, 0.5) is NO_PAIR_TABLE
+    assert pair_tables(tab, tab.code, a, 0.0, species) is NO_PAIR_TABLE
     assert math.isnan(lk.pair_restitution(tab.code, a, b, 1.0, 1.0, 0.5, 0.5, 0.5, 0.2, *NO_PAIR_TABLE, W)[2])
     dashpot = LinearDashpot(k=1e4, gamma=200.0)  # zeta_d = 1 is beyond the box (0.5): no table
     d = default_table("dashpot")
-    assert pair_table(d, d.code, *dashpot.constants(), 1.0, 0.5) is NO_PAIR_TABLE
+    assert pair_table(d, d.code, *dashpot.constants(), 1.0, 0.5, 1.0, 0.5) is NO_PAIR_TABLE
+    with pytest.raises(TableError, match="at most"):
+        pair_tables(tab, tab.code, a, b, [(1.0, 0.5 + 0.1 * k) for k in range(PAIR_SPECIES + 1)])
 
 
 def test_build_with_an_executor_is_deterministic(small_tables, tmp_path):

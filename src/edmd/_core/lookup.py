@@ -206,28 +206,33 @@ def lookup_normalised(values, tg, u1, lam_v, b, W):
     return a0, a1, a2
 
 
-#: fields of a pair table's geometry (:func:`pair_restitution`): the species' mass and radius, the
-#: contact constants it was built for, then ``(map, a, x0, h, n)`` of the speed axis and of the b axis
-PG_MASS, PG_RADIUS, PG_A, PG_B, PG_SPEED, PG_B_AXIS = 0, 1, 2, 3, 4, 9
-PAIR_GRID = 14
+#: fields of a row of pair tables' geometry (:func:`pair_restitution`): the two species' masses and
+#: radii, the contact constants the table was built for, ``(map, a, x0, h, n)`` of the speed axis
+#: and of the b axis, and the table's first value in the concatenated values
+PG_SPECIES, PG_A, PG_B, PG_SPEED, PG_B_AXIS, PG_OFFSET = 0, 4, 5, 6, 11, 16
+PAIR_GRID = 17
 
 
 @leaf
-def _in_pair_table(pg, ca, cb, mi, mj, ri, rj):
-    """Whether the pair table ``pg`` was built for this pair (one species) and contact law (exact compares)."""
-    m, r = pg[PG_MASS], pg[PG_RADIUS]
-    return mi == m and mj == m and ri == r and rj == r and ca == pg[PG_A] and cb == pg[PG_B]
+def _pair_row(pg, ca, cb, mi, mj, ri, rj):
+    """The row of ``pg`` built for this pair of species (either order) and contact law (exact compares), or -1."""
+    for t in range(pg.shape[0]):
+        m1, r1, m2, r2 = pg[t, PG_SPECIES], pg[t, PG_SPECIES + 1], pg[t, PG_SPECIES + 2], pg[t, PG_SPECIES + 3]
+        same = (mi == m1 and ri == r1 and mj == m2 and rj == r2) or (mi == m2 and ri == r2 and mj == m1 and rj == r1)
+        if same and ca == pg[t, PG_A] and cb == pg[t, PG_B]:
+            return t
+    return -1
 
 
 @leaf
 def pair_restitution(model, ca, cb, mi, mj, ri, rj, vn, vt, pv, pg, W):
-    r"""Matrix of restitution of a pair of the one species a pair table was built for (physics.md §4.7).
+    r"""Matrix of restitution from the pair table of the pair's two species (physics.md §4.7).
 
-    For one species (and one contact law) both velocity-dependent coordinates :math:`u_1` and
-    :math:`\Lambda_v` of a table are functions of the impact speed :math:`v` alone, so the
-    matrix of restitution is a function of two numbers: a pair table holds it on a grid of
-    the speed axis (:math:`\delta_v` for Hertz, :math:`\Lambda_v` for the dashpot, mapped as the
-    three-dimensional table's axes) and the b axis, interpolated by degree-5 Lagrange
+    For a pair of given species (masses and radii) and one contact law, both velocity-dependent
+    coordinates :math:`u_1` and :math:`\Lambda_v` of a table are functions of the impact speed
+    :math:`v` alone, so the matrix of restitution is a function of two numbers: a pair table holds
+    it on a grid of the speed axis (:math:`\delta_v` for Hertz, :math:`\Lambda_v` for the dashpot,
+    mapped as the three-dimensional table's axes) and the b axis, interpolated by degree-5 Lagrange
     polynomials (36 nodes where a three-dimensional table takes 216, and no central values).
     Its nodes hold :math:`(\psi_c g, \tau_c, \hat\varepsilon)` with :math:`g = (1-b^2)^{-1/10}`
     (Hertz) or 1 (dashpot), from which (physics.md §4.5)
@@ -235,11 +240,14 @@ def pair_restitution(model, ca, cb, mi, mj, ri, rj, vn, vt, pv, pg, W):
     .. math::
         \Phi = \Lambda_v b\,\psi_c g,\qquad D = 1 - \Lambda_v\,k\,u_1\sqrt{1-b^2}\,\hat\varepsilon,\qquad t_c = \tau_c t_s(v_n)
 
-    with :math:`k = 1` (Hertz) or 2 (dashpot). Returns ``(Phi, D, t_c, eps_hat)``; NaNs for another
-    pair or law, or outside the grid (the caller then takes :func:`matrix_of_restitution`).
+    with :math:`k = 1` (Hertz) or 2 (dashpot). ``pg``: one row per table (:data:`PAIR_GRID`
+    fields), ``pv``: their values, concatenated. Returns ``(Phi, D, t_c, eps_hat)``; NaNs for a
+    pair or law no table was built for, or outside the grid (the caller then takes
+    :func:`matrix_of_restitution`).
     """
     nan = math.nan
-    if not _in_pair_table(pg, ca, cb, mi, mj, ri, rj):
+    t = _pair_row(pg, ca, cb, mi, mj, ri, rj)
+    if t < 0:
         return nan, nan, nan, nan
     sigma = ri + rj
     mu = mi * mj / (mi + mj)
@@ -248,14 +256,15 @@ def pair_restitution(model, ca, cb, mi, mj, ri, rj, vn, vt, pv, pg, W):
     u1, lam_v = table_coordinates(model, ca, cb, mu, reff, sigma, v)
     b = vt / v
     q, a = PG_SPEED, PG_B_AXIS
-    nb = int(pg[a + 4])
-    k0 = _stencil(pg[q], pg[q + 1], u1 if model == MODEL_HERTZ else lam_v, pg[q + 2], pg[q + 3], int(pg[q + 4]), 5, W, 0)
-    k1 = _stencil(pg[a], pg[a + 1], b, pg[a + 2], pg[a + 3], nb, 5, W, 1)
+    nb = int(pg[t, a + 4])
+    k0 = _stencil(pg[t, q], pg[t, q + 1], u1 if model == MODEL_HERTZ else lam_v, pg[t, q + 2], pg[t, q + 3], int(pg[t, q + 4]), 5, W, 0)
+    k1 = _stencil(pg[t, a], pg[t, a + 1], b, pg[t, a + 2], pg[t, a + 3], nb, 5, W, 1)
     if k0 < 0 or k1 < 0:
         return nan, nan, nan, nan
+    first = int(pg[t, PG_OFFSET])
     acc = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     for i in range(6):
-        acc = _row18(acc, W[0, i], pv, ((k0 + i) * nb + k1) * N_OUT)
+        acc = _row18(acc, W[0, i], pv, first + ((k0 + i) * nb + k1) * N_OUT)
     t0 = t1 = t2 = 0.0
     for k in range(6):
         w = W[1, k]

@@ -52,7 +52,7 @@ from .._core import twobody_friction as _tf
 from .._core.bundles import EMDStarData
 from .contact import ContactError, ContactModel, Hertz, LinearDashpot
 from .friction import Friction
-from .tables import NO_PAIR_TABLE, RestitutionTable, default_table, pair_table
+from .tables import NO_PAIR_TABLE, RestitutionTable, default_table, pair_tables
 
 
 class EMDStarError(ValueError):
@@ -345,13 +345,13 @@ def _load_table(tables: str, model: str) -> RestitutionTable | None:
     return tab
 
 
-def emd_bundle(n: int, rule: EMDStar | None, pending=None, dim: int = 3, species: tuple[float, float] | None = None) -> EMDStarData:
+def emd_bundle(n: int, rule: EMDStar | None, pending=None, dim: int = 3, species=None) -> EMDStarData:
     """The ``emd`` bundle of :mod:`edmd._core.emdstar` for ``n`` particles (internal order).
 
     ``pending``: ``(dv (n, 3), t_b (n,), partner (n,))`` or ``None`` (nothing pending); ``dim``:
     solid spheres (3) or disks (2) for the hard-limit table's inertia sum; ``species``: the
-    ``(mass, radius)`` that every particle has, if they are all alike (their contacts then take
-    the matrix of restitution from a pair table, :func:`~edmd.physics.tables.pair_table`).
+    distinct ``(mass, radius)`` of the particles where they are few (their contacts then take
+    the matrix of restitution from pair tables, :func:`~edmd.physics.tables.pair_tables`).
     """
     if pending is None:
         pending = (np.zeros((n, 3)), np.full(n, np.inf), np.full(n, -1, np.int32))
@@ -369,7 +369,7 @@ def emd_bundle(n: int, rule: EMDStar | None, pending=None, dim: int = 3, species
     pair = NO_PAIR_TABLE
     table = None if rule is None else rule.table()
     if table is not None and species is not None and (rule.friction is None or rule.friction_table):  # (other frictional contacts are solved)
-        pair = pair_table(table, table.code, *rule.contact.constants(), *(float(x) for x in species))
+        pair = pair_tables(table, table.code, *rule.contact.constants(), species)
     return EMDStarData(*pending, values, tg, ctab, cgeo, *scratch, *tangential, *pair)
 
 

@@ -459,7 +459,9 @@ def check_table(table: RestitutionTable, points: int = 10_000, seed: int = 0, sa
 
 
 #: placeholder pair table: its species mass is NaN, so no pair matches (:func:`edmd._core.lookup.pair_restitution`)
-NO_PAIR_TABLE = (np.zeros(_lk.N_OUT), np.full(_lk.PAIR_GRID, np.nan))
+NO_PAIR_TABLE = (np.zeros(_lk.N_OUT), np.full((1, _lk.PAIR_GRID), np.nan))
+#: most species (distinct masses and radii) whose pairs get pair tables: ``s (s + 1) / 2`` tables
+PAIR_SPECIES = 3
 #: nodes of a pair table's speed axis per cell of the three-dimensional table that its curve crosses
 PAIR_NODES_PER_CELL = 2
 #: a pair table's b axis goes on beyond its table's (same map and spacing) up to this eccentricity
@@ -476,29 +478,30 @@ def _pair_b_axis(table: RestitutionTable) -> tuple[tuple, np.ndarray]:
     return (_lk.AX_GRAZING, a, x0, h, n), bs
 
 
-@functools.lru_cache(maxsize=16)
-def pair_table(table: RestitutionTable, code: int, a: float, b: float, mass: float, radius: float) -> tuple[np.ndarray, np.ndarray]:
-    r"""The matrix of restitution of one species' contacts as a table over impact speed and eccentricity (physics.md §4.7).
+@functools.lru_cache(maxsize=32)
+def pair_table(table: RestitutionTable, code: int, a: float, b: float, m1: float, r1: float, m2: float, r2: float) -> tuple[np.ndarray, np.ndarray]:
+    r"""The matrix of restitution of the contacts of two species as a table over impact speed and eccentricity (physics.md §4.7).
 
-    For spheres (or disks) of one mass and radius under one contact law (``code``, constants
-    ``(a, b)``), the damping and softness coordinates of ``table`` are functions of the impact
-    speed alone: :math:`\delta_v\propto v^{1/5}`, :math:`\Lambda_v\propto v^{4/5}` (Hertz), or a
-    constant :math:`\zeta_d` and :math:`\Lambda_v\propto v` (dashpot). Along that curve through
-    ``table``'s box the map is tabulated on a two-dimensional grid (speed axis: :math:`\delta_v`,
-    linear, or :math:`\Lambda_v`, mapped like ``table``'s softness axis; b axis: ``table``'s,
-    carried on towards grazing contacts, :data:`PAIR_B_MAX`) by
-    direct solves at the nodes, :data:`PAIR_NODES_PER_CELL` speed nodes per cell of ``table``
-    crossed. :func:`edmd._core.lookup.pair_restitution` interpolates it at a quarter of the cost
-    of a three-dimensional lookup; impacts beyond the curve's part inside the box fall back as before.
+    For spheres (or disks) of masses and radii ``(m1, r1)`` and ``(m2, r2)`` (the same for one
+    species) under one contact law (``code``, constants ``(a, b)``), the damping and softness
+    coordinates of ``table`` are functions of the impact speed alone: :math:`\delta_v\propto v^{1/5}`,
+    :math:`\Lambda_v\propto v^{4/5}` (Hertz), or a constant :math:`\zeta_d` and :math:`\Lambda_v\propto v`
+    (dashpot). Along that curve through ``table``'s box the map is tabulated on a two-dimensional
+    grid (speed axis: :math:`\delta_v`, linear, or :math:`\Lambda_v`, mapped like ``table``'s softness
+    axis; b axis: ``table``'s, carried on towards grazing contacts, :data:`PAIR_B_MAX`) by direct
+    solves at the nodes, :data:`PAIR_NODES_PER_CELL` speed nodes per cell of ``table`` crossed.
+    :func:`edmd._core.lookup.pair_restitution` interpolates it at a quarter of the cost of a
+    three-dimensional lookup; impacts beyond the curve's part inside the box fall back as before.
 
-    Returns ``(values, grid)`` for the compiled core, :data:`NO_PAIR_TABLE` where there is none
-    (elastic contacts, whose three-dimensional lookup is exact, or a curve outside the box).
+    Returns ``(values, grid)`` for the compiled core (``grid``: one row), :data:`NO_PAIR_TABLE`
+    where there is none (elastic contacts, whose three-dimensional lookup is exact, or a curve
+    outside the box). :func:`pair_tables` joins the tables of several pairs of species.
 
     Example:
         >>> import numpy as np
         >>> from edmd._core import lookup as lk
         >>> tab = default_table("hertz")
-        >>> pv, pg = pair_table(tab, tab.code, 1e4, 0.01, 1.0, 0.5)
+        >>> pv, pg = pair_table(tab, tab.code, 1e4, 0.01, 1.0, 0.5, 1.0, 0.5)
         >>> out = np.zeros((1, 4))
         >>> lk.pair_restitution_many(tab.code, 1e4, 0.01, 1.0, 1.0, 0.5, 0.5, np.array([0.3]), np.array([0.1]), pv, pg, out, np.zeros(lk.SCRATCH_SHAPE))
         >>> mu, reff, sigma = 0.5, 0.25, 1.0
@@ -508,9 +511,9 @@ def pair_table(table: RestitutionTable, code: int, a: float, b: float, mass: flo
     """
     if b == 0.0:
         return NO_PAIR_TABLE
-    sigma = radius + radius
-    mu = mass * mass / (mass + mass)
-    reff = radius * radius / sigma
+    sigma = r1 + r2  # (as the compiled lookup computes them)
+    mu = m1 * m2 / (m1 + m2)
+    reff = r1 * r2 / sigma
     u1_1, lam_1 = _lk.table_coordinates(code, a, b, mu, reff, sigma, 1.0)  # at v = 1
     tg = table.geometry
     (d0, d1), (s0, s1) = table.box.damping, table.box.softness
@@ -536,8 +539,30 @@ def pair_table(table: RestitutionTable, code: int, a: float, b: float, mass: flo
     b_axis, bs = _pair_b_axis(table)
     values = np.zeros((n, len(bs), _lk.N_OUT))
     _lk.pair_node_values(code, u1s, lvs, bs, NODE_RTOL, values, np.zeros((13, 3)))
-    grid = np.array([mass, radius, a, b, *speed, (hi - lo) / (n - 1), n, *b_axis], float)
+    grid = np.array([[m1, r1, m2, r2, a, b, *speed, (hi - lo) / (n - 1), n, *b_axis, 0.0]], float)
     return values.reshape(-1), grid
+
+
+def pair_tables(table: RestitutionTable, code: int, a: float, b: float, species) -> tuple[np.ndarray, np.ndarray]:
+    """The pair tables (:func:`pair_table`) of every pair of ``species`` (``(mass, radius)`` each, at
+    most :data:`PAIR_SPECIES`), joined for :func:`edmd._core.lookup.pair_restitution`.
+
+    Example:
+        >>> tab = default_table("dashpot")
+        >>> pv, pg = pair_tables(tab, tab.code, 1e4, 3.0, [(1.0, 0.5), (2.0, 0.6)])
+        >>> pg.shape[0], pg[1, :4].tolist()
+        (3, [1.0, 0.5, 2.0, 0.6])
+    """
+    species = list(species)
+    if len(species) > PAIR_SPECIES:
+        raise TableError(f"pair tables cover at most {PAIR_SPECIES} species, got {len(species)}")
+    made = [pair_table(table, code, a, b, *species[i], *species[j]) for i in range(len(species)) for j in range(i, len(species))]
+    made = [t for t in made if t is not NO_PAIR_TABLE]
+    if not made:
+        return NO_PAIR_TABLE
+    grid = np.concatenate([g for _v, g in made])
+    grid[:, _lk.PG_OFFSET] = np.cumsum([0] + [v.size for v, _g in made[:-1]])
+    return np.concatenate([v for v, _g in made]), grid
 
 
 @functools.lru_cache(maxsize=None)
@@ -556,4 +581,4 @@ def default_table(model) -> RestitutionTable:
         return RestitutionTable.load(p)
 
 
-__all__ = ["Box", "DEFAULT_BOXES", "NO_PAIR_TABLE", "RestitutionTable", "TableError", "build_table", "check_table", "default_table", "pair_table"]
+__all__ = ["Box", "DEFAULT_BOXES", "NO_PAIR_TABLE", "PAIR_SPECIES", "RestitutionTable", "TableError", "build_table", "check_table", "default_table", "pair_table", "pair_tables"]

@@ -33,6 +33,7 @@ from .._core.nblist import list_reach
 from .._core.wells import capture_by_distance, captured_pairs, load_captured, well_reach
 from ..physics import collide
 from ..physics.emdstar import EMDStar, FrictionTableWarning, emd_bundle, friction_table_misses
+from ..physics.tables import PAIR_SPECIES
 from .memory import grid_shape
 from .neighbours import cell_edge, local_densities
 from ..state import State, StateError, default_inertia, filled, rescale_temperature
@@ -94,12 +95,19 @@ class EngineOptions:
 AUTO_THRESHOLD = {2: 0.6, 3: 0.35}
 
 
-def _species(state: State) -> tuple[float, float] | None:
-    """The ``(mass, radius)`` of every particle when they are all alike (else ``None``)."""
+def _species(state: State) -> list[tuple[float, float]] | None:
+    """The distinct ``(mass, radius)`` of the particles if there are at most
+    :data:`~edmd.physics.tables.PAIR_SPECIES` (else ``None``): the species whose pairs get pair tables."""
     m, r = state.mass, state.radius
     if m.size and m.min() == m.max() and r.min() == r.max():
-        return float(m[0]), float(r[0])
-    return None
+        return [(float(m[0]), float(r[0]))]
+    masses, radii = np.unique(m), np.unique(r)
+    if masses.size > PAIR_SPECIES or radii.size > PAIR_SPECIES:
+        return None
+    kinds = np.unique(np.searchsorted(masses, m) * radii.size + np.searchsorted(radii, r))
+    if kinds.size > PAIR_SPECIES:
+        return None
+    return [(float(masses[k // radii.size]), float(radii[k % radii.size])) for k in kinds]
 
 
 class EngineError(RuntimeError):
@@ -433,7 +441,7 @@ class Engine:
         for k in range(self.dim):
             image[:, k] = state.image[order, k]
         self.part = Particles(P, state.mass[order], *self._spins(state, order), image, np.zeros(n, np.int32), self._tc_times(state, order))
-        self.emd = emd_bundle(n if self.emd_rule is not None else 0, self.emd_rule, pending, self.dim, _species(state))
+        self.emd = emd_bundle(n if self.emd_rule is not None else 0, self.emd_rule, pending, self.dim, _species(state) if self.emd_rule is not None else None)
         self.ev = new_events(n)
         self.pairs = new_pairs(n, captures)
         self._derive_captures = self.well is not None and state.captured_pairs is None
