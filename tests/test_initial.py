@@ -84,6 +84,7 @@ def test_maxwell_boltzmann(dim):
         ({"kind": "uniform", "min": 0.5, "max": 0.4}, "min <= max"),
         ({"kind": "normal", "mean": 1, "std": 0.1, "sd": 1}, "unknown keys"),
         (-1.0, "radius must be positive"),
+        (np.full(10, 0.5), "a number or a distribution dict"),  # (was a TypeError from dict())
     ],
 )
 def test_bad_radius_distributions(spec, match):

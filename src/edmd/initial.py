@@ -40,6 +40,11 @@ def radii(n: int, distribution: float | dict, rng: np.random.Generator | None = 
         if not distribution > 0:
             raise StateError(f"radius must be positive, got {distribution}")
         return np.full(n, float(distribution))
+    if not isinstance(distribution, dict):
+        raise StateError(
+            f"radius must be a number or a distribution dict (kind: uniform, normal, lognormal, discrete), got {type(distribution).__name__}; "
+            "for given radii use {'kind': 'discrete', 'values': [...], 'fractions': [...]} or build an edmd.State"
+        )
     d = dict(distribution)
     kind = d.pop("kind", None)
     try:
