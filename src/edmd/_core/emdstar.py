@@ -186,8 +186,8 @@ def smooth_map(i, j, P, mass, geo, fp, ip, emd):
     r"""The A event of the smooth contact ``(i, j)`` (both streamed to it): relocation, velocities, increments.
 
     Fills ``work[4:9]`` with ``r_iA, r_jA, V, Delta_i, Delta_j`` (``r_jA`` in the periodic image
-    closest to ``i``) from the matrix of restitution of physics.md §4.5–§4.7 (the pair table of
-    a single species, :func:`.lookup.pair_restitution`; else the table, or the direct solver
+    closest to ``i``) from the matrix of restitution of physics.md §4.5–§4.7 (the pair tables of
+    up to three species, :func:`.lookup.pair_restitution`; else the table, or the direct solver
     outside the table's box or when no table is used) and the update of §4.6.
     Returns ``(t_c, lost, lost, v_n, v_t)``: the contact duration (NaN if the solver failed) and
     the kinetic energy the pair loses (twice: all of it is translational).
