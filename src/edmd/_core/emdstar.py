@@ -29,6 +29,7 @@ spins at A is the same dynamics as at B, and the State needs no pending spin.
 import math
 
 import numpy as np
+from numba.extending import overload
 
 from . import layout as L
 from .cells import cell_insert, cell_of_point, cell_remove, count_work, walk_around, walk_next
@@ -37,12 +38,12 @@ from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTA
 from .friction_lookup import G_NC, tabled_update
 from .lookup import species_restitution
 from .nblist import SQRT3, rebuild_list
-from .predict import INF, advance, box_shift, contact_time, flight, separation, wrap3
+from .predict import INF, advance, box_shift, flight, pending_contact_time, separation, wrap3
 from .schedule import repredict, set_pair, wrap_into_box
 from .stress import committed_current, drift_flux, energy_virial, impulse_tensor, particle_current, particle_energy, virial_tensor
 from .twobody import collision_frame, lab_frame_update
 from .twobody_friction import frictional_update
-from .wallmotion import wall_planes
+from .wallmotion import has_wall, vibrating_type, wall_planes
 from .walls import ride_pair_dt
 
 
@@ -54,7 +55,12 @@ def is_pending(emd, p):
 
 @hot
 def execute_b(p, t, P, count, emd, geo):
-    r"""Event B of ``p`` at time ``t`` (on schedule, or early in exception b): :math:`\mathbf v \leftarrow \mathbf v(t) + \boldsymbol\Delta`."""
+    r"""Event B of ``p`` at time ``t`` (on schedule, or early in exception b): :math:`\mathbf v \leftarrow \mathbf v(t) + \boldsymbol\Delta`.
+
+    The event counter is left alone: predictions made while the contact was pending followed the
+    jump (:func:`.predict.pending_contact_time`), so on schedule they stay valid; an early B event
+    (:func:`_early_b`) and the vibrating wall's runs (:func:`keeps_predictions`) bump it.
+    """
     pdv, ptb, pj = emd.pending_dv, emd.pending_until, emd.partner
     advance(P, p, t, geo)
     P[p, L.VX] += pdv[p, 0]
@@ -65,7 +71,20 @@ def execute_b(p, t, P, count, emd, geo):
     pdv[p, 2] = 0.0
     ptb[p] = INF
     pj[p] = -1
-    count[p] += 1
+
+
+def keeps_predictions(P, geo):
+    """Whether an on-schedule B event keeps the particle's predictions (see :func:`execute_b`):
+    always, except with the vibrating wall, whose riders' contact times follow straight flights
+    (:func:`.walls.ride_pair_dt`), so there a B event re-predicts the particle."""
+    return not (has_wall(geo) and P.shape[1] > L.ROW)
+
+
+@overload(keeps_predictions, inline="always")
+def _keeps_predictions_hook(P, geo):
+    if vibrating_type(geo):
+        return lambda P, geo: P.shape[1] <= L.ROW
+    return lambda P, geo: True
 
 
 @leaf
@@ -87,10 +106,12 @@ def book_relocation(acc, m, e, at_a, before, delta, v, tc):
 
 
 @jit
-def relocation_scan(p, x, y, z, v, i, j, t, P, grid, geo, walls, cbuf, predict):
+def relocation_scan(p, x, y, z, v, i, j, t, P, grid, geo, walls, cbuf, predict, tc, dv, ptb, pdv):
     """Exception a) test: would particle ``p`` moved to ``(x, y, z)`` (as it will be stored) overlap
     a wall or a third particle? And (``predict``), in the same pass, the earliest contact of ``p``
-    moving on with velocity ``v``.
+    moving on with velocity ``v`` until its B event after ``tc`` and with ``v + dv`` after it
+    (third particles with their own pending B events, ``ptb``, ``pdv``:
+    :func:`.predict.pending_contact_time`).
 
     Candidates are the particles binned in the 3^d cells around the point: cells are at least
     as wide as the largest contact distance plus the list skin (list mode bins list centres,
@@ -129,7 +150,8 @@ def relocation_scan(p, x, y, z, v, i, j, t, P, grid, geo, walls, cbuf, predict):
                 if d2 < ox * ox + oy * oy + oz * oz:
                     return True, best, bk
             if predict:
-                dt = ride_pair_dt(p, x, y, z, v[0], v[1], v[2], r, P, k, t, geo, contact_time(dx, dy, dz, v[0] - kvx, v[1] - kvy, v[2] - kvz, sig))
+                contact = pending_contact_time(dx, dy, dz, v[0] - kvx, v[1] - kvy, v[2] - kvz, sig, tc, dv[0], dv[1], dv[2], ptb[k] - t, pdv[k, 0], pdv[k, 1], pdv[k, 2])
+                dt = ride_pair_dt(p, x, y, z, v[0], v[1], v[2], r, P, k, t, geo, contact)
                 if dt < best:
                     best, bk = dt, k
             tested += 1
@@ -279,7 +301,7 @@ def finish_contact(p, i, j, t, part, acc, ev, q, grid, lists, geo, mode, fp, ip,
     _early_b(p, t, part, acc, emd, geo)
     if ip[L.IP_EMD_COMM] and other != i and other != j and pj[other] == p:
         _early_b(other, t, part, acc, emd, geo)
-        repredict(np.int64(other), t, part.rows, part.count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd.pending_until, bath_t, pairs)
+        repredict(np.int64(other), t, part.rows, part.count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd.pending_until, emd.pending_dv, bath_t, pairs)
 
 
 @jit
@@ -292,6 +314,7 @@ def _early_b(p, t, part, acc, emd, geo):
     early = emd.pending_until[p] - t
     dx, dy, dz = pdv[p, 0] * early, pdv[p, 1] * early, pdv[p, 2] * early
     execute_b(p, t, P, count, emd, geo)
+    count[p] += 1  # (the predictions that followed the jump at t_B are wrong now)
     e = particle_energy(P, mass, omega, inertia, p, omega.shape[0] != 0)
     drift_flux(acc, mass[p], e, dx, dy, dz, P[p, L.VX], P[p, L.VY], P[p, L.VZ])
 
@@ -335,10 +358,10 @@ def _make_emd_contact(frictional):
         work = emd.work
         walls = ip[L.IP_WALLS]
         cells = mode != NB_LIST
-        blocked, dt_i, k_i = relocation_scan(i, work[4, 0], work[4, 1], work[4, 2], work[6], i, j, t, P, grid, geo, walls, cbuf, cells)
+        blocked, dt_i, k_i = relocation_scan(i, work[4, 0], work[4, 1], work[4, 2], work[6], i, j, t, P, grid, geo, walls, cbuf, cells, tc, work[7], ptb, pdv)
         if not blocked:  # (j as it will be stored: in its own periodic frame, see below)
             jx, jy, jz = P[j, L.X] + (work[5, 0] - work[1, 0]), P[j, L.Y] + (work[5, 1] - work[1, 1]), P[j, L.Z] + (work[5, 2] - work[1, 2])
-            blocked, dt_j, k_j = relocation_scan(j, jx, jy, jz, work[6], i, j, t, P, grid, geo, walls, cbuf, cells)
+            blocked, dt_j, k_j = relocation_scan(j, jx, jy, jz, work[6], i, j, t, P, grid, geo, walls, cbuf, cells, tc, work[8], ptb, pdv)
         if blocked:
             cnt[L.C_EMD_EXC_A] += 1
             return CONTACT_INSTANT

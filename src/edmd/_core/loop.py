@@ -19,7 +19,7 @@ from . import layout as L
 from .bath import bath_event
 from .cells import bin_all, walk_around, walk_next
 from .collide import collide_pair, collide_wall
-from .emdstar import emd_contact, emd_contact_frictional, execute_b, finish_contact, is_pending
+from .emdstar import emd_contact, emd_contact_frictional, execute_b, finish_contact, is_pending, keeps_predictions
 from .forcing import white_noise_kick
 from .jit import hot, jit, leaf
 from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTACT_GROWN, CONTACT_SOFT, CONTACT_WELL, NB_LIST, NORMAL_SOFT, TANGENT_SMOOTH
@@ -201,7 +201,7 @@ def _make_loop(walls, emd_on, rough, normal, bath_on, kick_on, well, grow):
         kinds and capture map (:mod:`.wells`).
         """
         P, mass, omega, inertia, image, count, tlast = part
-        ptb = emd.pending_until
+        ptb, pdv = emd.pending_until, emd.pending_dv
         bath_t = drive.bath_t
         n = P.shape[0]
         key = q.key
@@ -243,7 +243,7 @@ def _make_loop(walls, emd_on, rough, normal, bath_on, kick_on, well, grow):
                 white_noise_kick(t, P, mass, count, drive, fp, acc, cnt, geo)
                 cnt[L.C_KICKS] += 1
                 for p in range(n):  # called, not inlined: no predictor copy for a rare global event
-                    repredict(np.int64(p), t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb, bath_t, pairs)
+                    repredict(np.int64(p), t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb, pdv, bath_t, pairs)
                 queue_update(q, i, drive.timer_t[L.TIMER_KICK])
                 continue
             # the rare events (stale pair events, shell exits, walls, B events) re-predict at the
@@ -262,6 +262,10 @@ def _make_loop(walls, emd_on, rough, normal, bath_on, kick_on, well, grow):
                 cnt[L.C_AUX] += 1
                 if emd_on and kind == L.AUX_B:
                     execute_b(i, t, P, count, emd, geo)
+                    if keeps_predictions(P, geo):  # (its pair predictions followed the jump)
+                        pair = False
+                    else:
+                        count[i] += 1
                 elif (walls and kind >= L.AUX_WALL and kind < L.AUX_WALL_END) or (bath_on and kind == L.AUX_BATH):
                     # a wall or the bath changes the particle's velocity: as a third body, it ends a
                     # pending soft contact first (the bath acts on the committed velocity)
@@ -289,7 +293,7 @@ def _make_loop(walls, emd_on, rough, normal, bath_on, kick_on, well, grow):
                         return L.ST_LIST_FULL
                 elif kind >= L.AUX_CELL and kind < L.AUX_WALL:  # a cell crossing (the most frequent
                     # event of dilute gases): a path of its own
-                    cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf)
+                    cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf, ptb, pdv)
                     predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t, grow, rate)
                     requeue(q, ev, i)
                     continue
@@ -360,11 +364,11 @@ def _make_loop(walls, emd_on, rough, normal, bath_on, kick_on, well, grow):
                     if mode == NB_LIST:  # j's neighbours load while i's are tested
                         prefetch_neighbours(P, lists, j)
                     if not predicted:
-                        predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate, skin)
+                        predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate, skin, ptb, pdv)
                     predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t, grow, rate)
                     requeue(q, ev, i)
                     if not predicted:
-                        predict_pair(j, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate, skin)
+                        predict_pair(j, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate, skin, ptb, pdv)
                     predict_aux(j, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t, grow, rate)
                     requeue(q, ev, j)
                     continue
@@ -373,7 +377,7 @@ def _make_loop(walls, emd_on, rough, normal, bath_on, kick_on, well, grow):
             for s in range(nrep):
                 p = i if s == 0 else j
                 if pair:
-                    predict_pair(p, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate, skin)
+                    predict_pair(p, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate, skin, ptb, pdv)
                 if aux:
                     predict_aux(p, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t, grow, rate)
                 requeue(q, ev, p)
@@ -398,6 +402,7 @@ def _make_setup(walls, emd_on, bath_on, well, grow):
         reach = well_reach(fp)
         rate = fp[L.FP_GROW_LOCAL]
         wall_axes = ip[L.IP_WALLS]
+        ptb, pdv = emd.pending_until, emd.pending_dv
         if mode == NB_LIST:
             if not build_lists(P, grid, lists, geo, skin, list_reach(fp), cbuf):
                 return False
@@ -406,8 +411,8 @@ def _make_setup(walls, emd_on, bath_on, well, grow):
         else:
             bin_all(P, geo, grid)
         for i in range(n):
-            predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate, skin)
-            predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, emd.pending_until, bath_on, drive.bath_t, grow, rate)
+            predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate, skin, ptb, pdv)
+            predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, drive.bath_t, grow, rate)
         return True
 
     return setup_events

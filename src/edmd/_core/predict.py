@@ -58,6 +58,41 @@ def contact_time(dx, dy, dz, gx, gy, gz, sigma):
 
 
 @jit
+def pending_contact_time(dx, dy, dz, gx, gy, gz, sigma, ti, ax, ay, az, tj, bx, by, bz):
+    r"""Time until contact of a pair whose relative velocity jumps at the partners' pending eMD* B
+    events (physics.md §4.8, "Predictions across B events").
+
+    The separation :math:`\mathbf r` moves with :math:`\mathbf g` until the first B event, with
+    :math:`\mathbf g + \boldsymbol\Delta_i` after ``ti`` and with :math:`\mathbf g - \boldsymbol\Delta_j` after ``tj``
+    (times from now, ``inf``: none pending; ``(ax, ay, az)`` :math:`=\boldsymbol\Delta_i`, ``(bx, by, bz)``
+    :math:`=\boldsymbol\Delta_j`). Each straight piece gets :func:`contact_time` from its start; the first
+    contact within its piece is the answer (a contact at a B event's time belongs to the piece after
+    it: B events come first at equal times).
+
+    Example:
+        >>> # at rest 3 apart until 0.5, then approaching at unit speed: contact at 0.5 + 1
+        >>> pending_contact_time(3.0, 0.0, 0.0, 0.0, 0.0, 0.0, 2.0, 0.5, -1.0, 0.0, 0.0, math.inf, 0.0, 0.0, 0.0)
+        1.5
+    """
+    if tj < ti:  # (the earlier jump first: j's, by -Delta_j, then i's)
+        ti, tj = tj, ti
+        ax, ay, az, bx, by, bz = -bx, -by, -bz, ax, ay, az
+    else:
+        bx, by, bz = -bx, -by, -bz
+    dt = contact_time(dx, dy, dz, gx, gy, gz, sigma)
+    if dt < ti or ti == INF:
+        return dt
+    dx, dy, dz = dx + gx * ti, dy + gy * ti, dz + gz * ti
+    gx, gy, gz = gx + ax, gy + ay, gz + az
+    dt = contact_time(dx, dy, dz, gx, gy, gz, sigma)
+    h = tj - ti
+    if dt < h or tj == INF:
+        return ti + dt
+    dx, dy, dz = dx + gx * h, dy + gy * h, dz + gz * h
+    return tj + contact_time(dx, dy, dz, gx + bx, gy + by, gz + bz, sigma)
+
+
+@jit
 def sliding_contact_time(dx, dy, dz, gx, gy, gz, sigma, lx, horizon):
     r"""Earliest contact of a pair across a sliding Lees-Edwards face with any of the partner's x
     images: the separation to image :math:`k` is :math:`(d_x - kL_x, d_y, d_z) + \mathbf g\tau` (physics.md §5.7).

@@ -23,7 +23,7 @@ from .jit import hot, jit, leaf
 from .layout import NB_LIST
 from .nblist import SQRT3, shell_exit_time
 from .prefetch import prefetch
-from .predict import INF, advance, box_shift, flight, gap_time, pair_contact_time, wrap3
+from .predict import INF, advance, box_shift, flight, gap_time, pair_contact_time, pending_contact_time, wrap3
 from .queue import QI_SIZE, queue_update, warm_bucket
 from .wallmotion import vibrating_type, has_wall, is_moving, level_time, ride_axis, ride_end, wall_params
 from .walls import moving_wall_time, ride_pair_dt
@@ -39,11 +39,33 @@ def set_pair(ev, count, i, t, j):
 
 
 @hot
-def _closer(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, best, bj):
+def pending_of(i, t, ptb, pdv):
+    """The pending eMD* B event of ``i`` seen from ``t``: its time from now and velocity increment
+    (``inf`` and zeros: none; hard-sphere runs, whose ``ptb`` is empty, read nothing)."""
+    if ptb.shape[0] == 0:
+        return INF, 0.0, 0.0, 0.0
+    return ptb[i] - t, pdv[i, 0], pdv[i, 1], pdv[i, 2]
+
+
+@jit
+def _across_b(dx, dy, dz, gx, gy, gz, sigma, t, geo, pend, ptb, pdv, j):
+    x, y, z = wrap3(dx, dy, dz, geo)
+    return pending_contact_time(x, y, z, gx, gy, gz, sigma, pend[0], pend[1], pend[2], pend[3], ptb[j] - t, pdv[j, 0], pdv[j, 1], pdv[j, 2])
+
+
+@hot
+def _closer(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, best, bj, pend, ptb, pdv):
     """The earlier of the current best ``(dt, partner)`` and a contact of ``i`` (at ``x_i`` with
-    ``v_i``, radius ``ri``) with ``j`` (with a vibrating wall, :func:`.walls.ride_pair_dt`)."""
+    ``v_i``, radius ``ri``; its pending B event ``pend``, :func:`pending_of`) with ``j`` (with a
+    vibrating wall, :func:`.walls.ride_pair_dt`). In eMD* runs a pair with a pending B event
+    (``ptb``, ``pdv``: all particles') follows its velocity jumps (:func:`.predict.pending_contact_time`)."""
     xj, yj, zj, vxj, vyj, vzj = flight(P, j, t, geo)
-    contact = pair_contact_time(xi - xj, yi - yj, zi - zj, vxi - vxj, vyi - vyj, vzi - vzj, ri + P[j, L.R], t, geo, best)
+    dx, dy, dz, gx, gy, gz = xi - xj, yi - yj, zi - zj, vxi - vxj, vyi - vyj, vzi - vzj
+    sigma = ri + P[j, L.R]
+    if ptb.shape[0] != 0 and (pend[0] < INF or ptb[j] < INF):  # (rare: the pair has a pending B event)
+        contact = _across_b(dx, dy, dz, gx, gy, gz, sigma, t, geo, pend, ptb, pdv, j)
+    else:
+        contact = pair_contact_time(dx, dy, dz, gx, gy, gz, sigma, t, geo, best)
     dt = ride_pair_dt(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, contact)
     if dt < best:
         return dt, j
@@ -51,13 +73,13 @@ def _closer(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, best, bj):
 
 
 @hot
-def _closest_in_walk(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, geo, cbuf, nc, s, j, best, bj):
+def _closest_in_walk(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, geo, cbuf, nc, s, j, best, bj, pend, ptb, pdv):
     """The earlier of ``(best, bj)`` and the contacts of ``i`` with the particles of a walk over
     cells (the cursor ``nc, s, j`` of :func:`.cells.walk_cells`), whose work it counts."""
     tested = 0
     while j >= 0:
         if j != i:
-            best, bj = _closer(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, best, bj)
+            best, bj = _closer(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, best, bj, pend, ptb, pdv)
             tested += 1
         nc, s, j = walk_next(grid, cbuf, nc, s, j)
     count_work(grid, nc, tested)
@@ -65,7 +87,7 @@ def _closest_in_walk(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, geo, cbuf, nc
 
 
 @leaf
-def scan_cells(i, t, P, count, ev, grid, geo, cbuf, axis, step):
+def scan_cells(i, t, P, count, ev, grid, geo, cbuf, axis, step, ptb, pdv):
     """Improve the pair event of ``i`` with the particles of a block of cells (see ``cell_block``).
 
     Inlined into the crossings (:func:`cross_cell`), the most frequent event of a dilute gas: a
@@ -75,15 +97,15 @@ def scan_cells(i, t, P, count, ev, grid, geo, cbuf, axis, step):
     xi, yi, zi, vxi, vyi, vzi = flight(P, i, t, geo)
     nc, s, j = walk_cells(grid, grid.cell[i], geo, cbuf, axis, step, t, sliding_horizon(i, t, P, grid, geo))
     prefetch_firsts(grid, cbuf, nc, s, P)
-    best, bj = _closest_in_walk(i, xi, yi, zi, vxi, vyi, vzi, P[i, L.R], P, t, grid, geo, cbuf, nc, s, j, ev.pair_t[i] - t, -1)
+    best, bj = _closest_in_walk(i, xi, yi, zi, vxi, vyi, vzi, P[i, L.R], P, t, grid, geo, cbuf, nc, s, j, ev.pair_t[i] - t, -1, pending_of(i, t, ptb, pdv), ptb, pdv)
     if bj >= 0:
         set_pair(ev, count, i, t + best, bj)
 
 
 @jit
-def scan_neighbourhood(i, t, P, count, ev, grid, geo, cbuf):
+def scan_neighbourhood(i, t, P, count, ev, grid, geo, cbuf, ptb, pdv):
     """:func:`scan_cells` over the full neighbourhood of ``i``'s cell (called: one compiled copy)."""
-    scan_cells(i, t, P, count, ev, grid, geo, cbuf, np.int64(-1), np.int64(0))
+    scan_cells(i, t, P, count, ev, grid, geo, cbuf, np.int64(-1), np.int64(0), ptb, pdv)
 
 
 @leaf
@@ -96,7 +118,7 @@ def prefetch_neighbours(P, lists, i):
 
 
 @hot
-def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate, skin):
+def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate, skin, ptb, pdv):
     """Full re-prediction of the earliest contact of ``i`` (neighbour list or 3^d cells; with
     lists in a sheared box, also the partners across the sliding face, :func:`sliding_partners`).
 
@@ -113,14 +135,15 @@ def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, 
         bk = L.PAIR_CORE
         count_work(grid, 0, nbl_n[i])
         prefetch_neighbours(P, lists, i)
+        pend = pending_of(i, t, ptb, pdv)
         for s in range(nbl_n[i]):
             if grow:
                 best, bj = closer_grow(xi, yi, zi, vxi, vyi, vzi, ri, P, nbl[i, s], t, geo, rate, best, bj)
             elif well:
                 best, bj, bk = closer_well(xi, yi, zi, vxi, vyi, vzi, ri, P, pairs, i, nbl[i, s], t, geo, reach, best, bj, bk)
             else:
-                best, bj = _closer(i, xi, yi, zi, vxi, vyi, vzi, ri, P, nbl[i, s], t, geo, best, bj)
-        best, bj = sliding_partners(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj)
+                best, bj = _closer(i, xi, yi, zi, vxi, vyi, vzi, ri, P, nbl[i, s], t, geo, best, bj, pend, ptb, pdv)
+        best, bj = sliding_partners(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj, pend, ptb, pdv)
         if bj >= 0:
             set_pair(ev, count, i, t + best, bj)
             if well:
@@ -129,7 +152,7 @@ def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, 
     ev.pair_t[i] = INF
     ev.pair_j[i] = -1
     if mode != NB_LIST:
-        scan_neighbourhood(i, t, P, count, ev, grid, geo, cbuf)
+        scan_neighbourhood(i, t, P, count, ev, grid, geo, cbuf, ptb, pdv)
 
 
 @leaf
@@ -216,7 +239,7 @@ def _sliding_horizon_hook(i, t, P, grid, geo):
 
 
 @jit
-def _sliding_partners(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj):
+def _sliding_partners(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj, pend, ptb, pdv):
     side = face_side(grid, grid.cell[i])
     if grid.shape[1] < 3:  # a single row is also the row across: all of it (listed partners again, harmlessly)
         nc, s, j = walk_cells(grid, grid.cell[i], geo, cbuf, np.int64(-1), np.int64(0), t, INF)
@@ -225,10 +248,10 @@ def _sliding_partners(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, 
         nc, s, j = walk_cells(grid, grid.cell[i], geo, cbuf, np.int64(1), np.int64(side), t, horizon)
     else:
         return best, bj
-    return _closest_in_walk(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, geo, cbuf, nc, s, j, best, bj)
+    return _closest_in_walk(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, geo, cbuf, nc, s, j, best, bj, pend, ptb, pdv)
 
 
-def sliding_partners(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj):
+def sliding_partners(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj, pend, ptb, pdv):
     """Improve the earliest contact ``(best, bj)`` of ``i`` (at ``x_i`` with ``v_i``) in list mode
     with the partners across a sliding Lees-Edwards face, which the lists leave out
     (:func:`.images.listing_distance2`): the particles whose list centres lie in the cells of the
@@ -241,17 +264,17 @@ def sliding_partners(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, c
     shell of :func:`.nblist.shell_exit_time` (shear refuses gravity and the vibrating wall).
     """
     if sheared(geo):
-        return _sliding_partners(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj)
+        return _sliding_partners(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj, pend, ptb, pdv)
     return best, bj
 
 
 @overload(sliding_partners, inline="always")
-def _sliding_partners_hook(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj):
+def _sliding_partners_hook(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj, pend, ptb, pdv):
     if sheared_type(geo):
-        return lambda i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj: _sliding_partners(
-            i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj
+        return lambda i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj, pend, ptb, pdv: _sliding_partners(
+            i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj, pend, ptb, pdv
         )
-    return lambda i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj: (best, bj)
+    return lambda i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj, pend, ptb, pdv: (best, bj)
 
 
 @hot
@@ -382,18 +405,18 @@ def requeue(q, ev, i):
 
 
 @jit
-def repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb, bath_t, pairs):
+def repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb, pdv, bath_t, pairs):
     """Both candidate events of ``i`` after its flight changed, and its calendar key.
 
     Compiled once and called (eMD* exception b, white-noise kicks); the loop inlines the same steps.
     """
-    predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, ip[L.IP_WELL] != 0, well_reach(fp), False, 0.0, fp[L.FP_SKIN])
+    predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, ip[L.IP_WELL] != 0, well_reach(fp), False, 0.0, fp[L.FP_SKIN], ptb, pdv)
     predict_aux(i, t, P, ev, grid, lists, geo, mode, ip[L.IP_WALLS] != 0, ip[L.IP_WALLS], ip[L.IP_EMD] != 0, fp[L.FP_SKIN], ptb, ip[L.IP_BATH] != 0, bath_t, False, 0.0)
     requeue(q, ev, i)
 
 
 @hot
-def cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf):
+def cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf, ptb, pdv):
     """Move ``i`` into the neighbouring cell (by direction, never by flooring) and scan the new layer."""
     gi = grid.shape
     k = (kind - L.AUX_CELL) >> 1
@@ -402,7 +425,7 @@ def cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf):
     ny, nz = gi[1], gi[2]
     cx, cy, cz = c // (ny * nz), (c // nz) % ny, c % nz
     ck = (cx, cy, cz)[k] + step
-    if k == 1 and (ck == gi[1] or ck < 0) and cross_sheared_face(i, t, 1 if ck > 0 else -1, P, image, count, ev, grid, geo, cbuf):
+    if k == 1 and (ck == gi[1] or ck < 0) and cross_sheared_face(i, t, 1 if ck > 0 else -1, P, image, count, ev, grid, geo, cbuf, ptb, pdv):
         return
     if ck == gi[k]:
         ck = 0
@@ -420,11 +443,11 @@ def cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf):
         cz = ck
     cell_remove(grid, i)
     cell_insert(grid, i, (cx * ny + cy) * nz + cz)
-    scan_cells(i, t, P, count, ev, grid, geo, cbuf, k, step)
+    scan_cells(i, t, P, count, ev, grid, geo, cbuf, k, step, ptb, pdv)
 
 
 @jit
-def _cross_sheared_face(i, t, shift, P, image, count, ev, grid, geo, cbuf):
+def _cross_sheared_face(i, t, shift, P, image, count, ev, grid, geo, cbuf, ptb, pdv):
     advance(P, i, t, geo)
     cross_y_face(P, image, i, shift, t, geo)
     ny, nz = grid.shape[1], grid.shape[2]
@@ -432,27 +455,27 @@ def _cross_sheared_face(i, t, shift, P, image, count, ev, grid, geo, cbuf):
     cx = cell_of_point(P[i, L.X], 0.0, 0.0, geo, grid) // (ny * nz)
     cell_remove(grid, i)
     cell_insert(grid, i, (cx * ny + (0 if shift > 0 else ny - 1)) * nz + c % nz)
-    scan_neighbourhood(i, t, P, count, ev, grid, geo, cbuf)
+    scan_neighbourhood(i, t, P, count, ev, grid, geo, cbuf, ptb, pdv)
 
 
-def cross_sheared_face(i, t, shift, P, image, count, ev, grid, geo, cbuf):
+def cross_sheared_face(i, t, shift, P, image, count, ev, grid, geo, cbuf, ptb, pdv):
     """A cell crossing of ``i`` through the y face of a sheared box (``shift``: +1 upwards, -1
     downwards): it becomes its image (:func:`.images.cross_y_face`) in the cell of its new x on the
     opposite face and scans its whole new neighbourhood (its x jumped by the offset). Returns
     whether the box is sheared (otherwise nothing is done: a plain periodic crossing)."""
     if sheared(geo):
-        _cross_sheared_face(i, t, shift, P, image, count, ev, grid, geo, cbuf)
+        _cross_sheared_face(i, t, shift, P, image, count, ev, grid, geo, cbuf, ptb, pdv)
         return True
     return False
 
 
 @overload(cross_sheared_face, inline="always")
-def _cross_sheared_face_hook(i, t, shift, P, image, count, ev, grid, geo, cbuf):
+def _cross_sheared_face_hook(i, t, shift, P, image, count, ev, grid, geo, cbuf, ptb, pdv):
     if not sheared_type(geo):
-        return lambda i, t, shift, P, image, count, ev, grid, geo, cbuf: False
+        return lambda i, t, shift, P, image, count, ev, grid, geo, cbuf, ptb, pdv: False
 
-    def impl(i, t, shift, P, image, count, ev, grid, geo, cbuf):
-        _cross_sheared_face(i, t, shift, P, image, count, ev, grid, geo, cbuf)
+    def impl(i, t, shift, P, image, count, ev, grid, geo, cbuf, ptb, pdv):
+        _cross_sheared_face(i, t, shift, P, image, count, ev, grid, geo, cbuf, ptb, pdv)
         return True
 
     return impl
