@@ -240,6 +240,31 @@ def test_cells_and_lists_give_the_same_contacts(dim):
     assert np.abs(logs[0][:, 0] - logs[1][:, 0]).max() < 1e-9
 
 
+def test_kept_predictions_match_re_predicting_at_b_events(dim):
+    """physics.md §4.8 (predictions across B events): a B event keeps the predictions made while
+    the contact was pending (they followed the jump). Runs with the vibrating wall re-predict at
+    every B event instead (emdstar.keeps_predictions); with an amplitude that vanishes in floating
+    point (1e-200) the two paths must give the same contacts, and every contact must approach."""
+    periodic = [True] * (dim - 1) + [False]
+    state = edmd.maxwell_boltzmann(edmd.random_packing(300, 0.1, dim=dim, periodic=periodic, seed=7), 1.0, seed=8)
+    rule = EMDStar(Hertz(young=2e3, poisson=0.3, A=2e-3))
+    logs, counters = [], []
+    for vibration in (None, edmd.VibratingWall(amplitude=1e-200, omega=1.0, axis="xyz"[dim - 1])):
+        sim = Simulation(state, collision=rule, walls=Wall(e_n=1.0), vibration=vibration)
+        sim.engine.enable_log(walls=True)
+        sim.run(until_time=3.0)
+        logs.append(sim.engine.take_log())
+        counters.append(sim.engine.emd_counters())
+        assert sim.totals().wall_collisions > 10
+    assert counters[0] == counters[1] and counters[0]["emd_contacts"] > 100 and counters[0]["emd_exceptions_b"] > 0
+    kept, repredicted = logs
+    assert len(kept) == len(repredicted)
+    assert np.array_equal(np.sort(kept[:, 1:3], axis=1), np.sort(repredicted[:, 1:3], axis=1))
+    assert np.abs(kept[:, 0] - repredicted[:, 0]).max() < 1e-10  # (1e-12 measured: rounding, amplified by the gas)
+    contacts = kept[kept[:, 2] >= 0]
+    assert np.all(contacts[:, 3] > 0.0)  # approaching: v_n > 0
+
+
 def test_energy_balance_with_walls_and_gravity(dim):
     """Kinetic (committed) + potential + dissipated stays constant; particles in a contact that
     reach a wall complete it first (exception b), so the wall acts on their own velocity."""

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from edmd._core.predict import INF, contact_time, gap_time, sliding_contact_time, sphere_exit_time
+from edmd._core.predict import INF, contact_time, gap_time, pending_contact_time, sliding_contact_time, sphere_exit_time
 
 
 def test_t1_pair_time_worked_example():
@@ -63,6 +63,60 @@ def test_underflowing_relative_speed_gives_no_event():
     assert contact_time(0.0, 3.0, 0.0, 0.0, -7.6e-163, 0.0, 2.0) == INF
     # a speed 1e-140 is still resolved exactly: the gap 1 closes in 1e140
     assert contact_time(0.0, 3.0, 0.0, 0.0, -1e-140, 0.0, 2.0) == pytest.approx(1e140, rel=1e-12)
+
+
+def _first_contact_by_sampling(r0, g, sigma, jumps, horizon=6.0, step=2e-4):
+    """The first time the separation of a piecewise-straight relative flight (velocity jumps
+    ``(time, dv)``) comes within ``sigma``: sampled, then bisected (``inf``: none before ``horizon``)."""
+
+    def separation(t):
+        r = r0 + np.multiply.outer(t, g)
+        for tb, dv in jumps:
+            r = r + np.multiply.outer(np.clip(t - tb, 0.0, None), dv)
+        return np.linalg.norm(r, axis=-1) - sigma
+
+    t = np.arange(0.0, horizon, step)
+    inside = np.flatnonzero(separation(t) <= 0.0)
+    if inside.size == 0:
+        return INF
+    lo, hi = t[inside[0] - 1], t[inside[0]]
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if separation(np.array(mid)) <= 0.0 else (mid, hi)
+    return hi
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("order", ["i first", "j first", "same time", "only i", "only j", "none"])
+def test_pending_contact_time_follows_the_velocity_jumps(dim, order):
+    """physics.md §4.8 (predictions across B events): the relative velocity jumps by +Delta_i at
+    t_i and by -Delta_j at t_j; the contact is the first root of the piecewise flight, checked
+    against sampling it."""
+    rng = np.random.default_rng(11 + dim)
+    times = {"i first": (0.4, 1.1), "j first": (1.2, 0.3), "same time": (0.7, 0.7), "only i": (0.6, INF), "only j": (INF, 0.5), "none": (INF, INF)}[order]
+    found = 0
+    for _ in range(60):
+        r0, g, a, b = (np.zeros(3) for _ in range(4))
+        r0[:dim] = rng.uniform(-3.0, 3.0, dim)
+        g[:dim], a[:dim], b[:dim] = rng.normal(0.0, 0.6, (3, dim))
+        g -= r0 * rng.uniform(0.1, 1.0)  # (mostly approaching, so that many pairs meet)
+        sigma = rng.uniform(0.5, 1.5)
+        if np.linalg.norm(r0) <= sigma * 1.05:
+            continue
+        jumps = [(tb, dv) for tb, dv in zip(times, (a, -b)) if tb < INF]
+        expected = _first_contact_by_sampling(r0, g, sigma, jumps)
+        got = pending_contact_time(*r0, *g, sigma, times[0], *a, times[1], *b)
+        if expected == INF:
+            assert got >= 6.0 - 1e-6
+        else:
+            assert got == pytest.approx(expected, abs=1e-9)
+            found += 1
+    assert found >= 15
+
+
+def test_pending_contact_time_without_jumps_is_contact_time():
+    args = (2.5, 0.4, -0.3, -1.0, 0.1, 0.2, 1.0)
+    assert pending_contact_time(*args, INF, 1.0, 2.0, 3.0, INF, -1.0, 0.5, 0.0) == contact_time(*args)
 
 
 def test_sliding_contact_time_is_the_earliest_contact_over_the_images():
