@@ -84,7 +84,7 @@ class Calendar(NamedTuple):
 class EMDStarData(NamedTuple):
     """Pending eMD* contacts and the matrix-of-restitution table (physics.md §4.8, :mod:`.emdstar`)."""
 
-    pending_dv: np.ndarray  #: (N, 3) pending velocity increment (zero: none)
+    pending_dv: np.ndarray  #: (N, 3) pending velocity increment (zero: none); (0,) without eMD* (a type the predictors prune by)
     pending_until: np.ndarray  #: (N,) local time of the pending B event (inf: none)
     partner: np.ndarray  #: (N,) int32 partner of the pending contact (-1: none)
     values: np.ndarray  #: lookup-table node values (:mod:`.lookup`)

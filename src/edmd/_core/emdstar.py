@@ -39,7 +39,7 @@ from .friction_lookup import G_NC, tabled_update
 from .lookup import species_restitution
 from .nblist import SQRT3, rebuild_list
 from .predict import INF, advance, box_shift, flight, pending_contact_time, separation, wrap3
-from .schedule import repredict, set_pair, wrap_into_box
+from .schedule import pending_arrays, repredict, set_pair, wrap_into_box
 from .stress import committed_current, drift_flux, energy_virial, impulse_tensor, particle_current, particle_energy, virial_tensor
 from .twobody import collision_frame, lab_frame_update
 from .twobody_friction import frictional_update
@@ -301,7 +301,7 @@ def finish_contact(p, i, j, t, part, acc, ev, q, grid, lists, geo, mode, fp, ip,
     _early_b(p, t, part, acc, emd, geo)
     if ip[L.IP_EMD_COMM] and other != i and other != j and pj[other] == p:
         _early_b(other, t, part, acc, emd, geo)
-        repredict(np.int64(other), t, part.rows, part.count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd.pending_until, emd.pending_dv, bath_t, pairs)
+        repredict(np.int64(other), t, part.rows, part.count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd.pending_until, pending_arrays(emd), bath_t, pairs)
 
 
 @jit

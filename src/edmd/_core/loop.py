@@ -28,7 +28,7 @@ from .predict import advance, separation
 from .stress import integrate_sheared
 from .wallmotion import free_fall, has_wall, integrate_riding, release, take_off
 from .queue import queue_top, queue_update
-from .schedule import cross_cell, predict_aux, predict_pair, prefetch_neighbours, repredict, requeue, warm_next, wrap_into_box
+from .schedule import cross_cell, pending_arrays, predict_aux, predict_pair, prefetch_neighbours, repredict, requeue, warm_next, wrap_into_box
 from .growth import collide_growing
 from .wells import capture_by_distance, well_event, well_reach
 
@@ -201,7 +201,7 @@ def _make_loop(walls, emd_on, rough, normal, bath_on, kick_on, well, grow):
         kinds and capture map (:mod:`.wells`).
         """
         P, mass, omega, inertia, image, count, tlast = part
-        ptb, pdv = emd.pending_until, emd.pending_dv
+        ptb, pending = emd.pending_until, pending_arrays(emd)
         bath_t = drive.bath_t
         n = P.shape[0]
         key = q.key
@@ -243,7 +243,7 @@ def _make_loop(walls, emd_on, rough, normal, bath_on, kick_on, well, grow):
                 white_noise_kick(t, P, mass, count, drive, fp, acc, cnt, geo)
                 cnt[L.C_KICKS] += 1
                 for p in range(n):  # called, not inlined: no predictor copy for a rare global event
-                    repredict(np.int64(p), t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb, pdv, bath_t, pairs)
+                    repredict(np.int64(p), t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb, pending, bath_t, pairs)
                 queue_update(q, i, drive.timer_t[L.TIMER_KICK])
                 continue
             # the rare events (stale pair events, shell exits, walls, B events) re-predict at the
@@ -293,7 +293,7 @@ def _make_loop(walls, emd_on, rough, normal, bath_on, kick_on, well, grow):
                         return L.ST_LIST_FULL
                 elif kind >= L.AUX_CELL and kind < L.AUX_WALL:  # a cell crossing (the most frequent
                     # event of dilute gases): a path of its own
-                    cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf, ptb, pdv)
+                    cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf, pending)
                     predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t, grow, rate)
                     requeue(q, ev, i)
                     continue
@@ -364,11 +364,11 @@ def _make_loop(walls, emd_on, rough, normal, bath_on, kick_on, well, grow):
                     if mode == NB_LIST:  # j's neighbours load while i's are tested
                         prefetch_neighbours(P, lists, j)
                     if not predicted:
-                        predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate, skin, ptb, pdv)
+                        predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate, skin, pending)
                     predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t, grow, rate)
                     requeue(q, ev, i)
                     if not predicted:
-                        predict_pair(j, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate, skin, ptb, pdv)
+                        predict_pair(j, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate, skin, pending)
                     predict_aux(j, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t, grow, rate)
                     requeue(q, ev, j)
                     continue
@@ -377,7 +377,7 @@ def _make_loop(walls, emd_on, rough, normal, bath_on, kick_on, well, grow):
             for s in range(nrep):
                 p = i if s == 0 else j
                 if pair:
-                    predict_pair(p, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate, skin, ptb, pdv)
+                    predict_pair(p, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate, skin, pending)
                 if aux:
                     predict_aux(p, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t, grow, rate)
                 requeue(q, ev, p)
@@ -402,7 +402,7 @@ def _make_setup(walls, emd_on, bath_on, well, grow):
         reach = well_reach(fp)
         rate = fp[L.FP_GROW_LOCAL]
         wall_axes = ip[L.IP_WALLS]
-        ptb, pdv = emd.pending_until, emd.pending_dv
+        ptb, pending = emd.pending_until, pending_arrays(emd)
         if mode == NB_LIST:
             if not build_lists(P, grid, lists, geo, skin, list_reach(fp), cbuf):
                 return False
@@ -411,7 +411,7 @@ def _make_setup(walls, emd_on, bath_on, well, grow):
         else:
             bin_all(P, geo, grid)
         for i in range(n):
-            predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate, skin, ptb, pdv)
+            predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate, skin, pending)
             predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, drive.bath_t, grow, rate)
         return True
 

@@ -14,6 +14,7 @@ called form for rare whole-particle re-predictions (global events, eMD* exceptio
 """
 
 import numpy as np
+from numba import types
 from numba.extending import overload
 
 from . import layout as L
@@ -38,34 +39,76 @@ def set_pair(ev, count, i, t, j):
     ev.pair_c[i] = count[j]
 
 
-@hot
-def pending_of(i, t, ptb, pdv):
-    """The pending eMD* B event of ``i`` seen from ``t``: its time from now and velocity increment
-    (``inf`` and zeros: none; hard-sphere runs, whose ``ptb`` is empty, read nothing)."""
-    if ptb.shape[0] == 0:
+def pending_arrays(emd):
+    """The pending eMD* B events that pair predictions follow: ``(ptb, pdv)`` of the ``emd``
+    bundle, or ``None`` in runs without eMD* (whose bundle holds ``pdv`` as a 1-D empty array).
+    By its type, not its value: a hard-sphere run compiles predictors that never see them (passed
+    as arrays, even unread, they moved the loop's code and cost dilute gases 12-25 %, paired)."""
+    if emd.pending_dv.ndim == 1:
+        return None
+    return emd.pending_until, emd.pending_dv
+
+
+@overload(pending_arrays, inline="always")
+def _pending_arrays_hook(emd):
+    if emd.types[emd.fields.index("pending_dv")].ndim == 1:
+        return lambda emd: None
+    return lambda emd: (emd.pending_until, emd.pending_dv)
+
+
+def pending_of(i, t, pending):
+    """The pending B event of ``i`` seen from ``t`` (:func:`pending_arrays`): its time from now and
+    velocity increment (``inf`` and zeros: none)."""
+    if pending is None:
         return INF, 0.0, 0.0, 0.0
+    ptb, pdv = pending
     return ptb[i] - t, pdv[i, 0], pdv[i, 1], pdv[i, 2]
 
 
+@overload(pending_of, inline="always")
+def _pending_of_hook(i, t, pending):
+    if isinstance(pending, types.NoneType):
+        return lambda i, t, pending: (INF, 0.0, 0.0, 0.0)
+    return lambda i, t, pending: (pending[0][i] - t, pending[1][i, 0], pending[1][i, 1], pending[1][i, 2])
+
+
 @jit
-def _across_b(dx, dy, dz, gx, gy, gz, sigma, t, geo, pend, ptb, pdv, j):
+def _across_b(dx, dy, dz, gx, gy, gz, sigma, t, geo, pend, pending, j):
     x, y, z = wrap3(dx, dy, dz, geo)
+    ptb, pdv = pending
     return pending_contact_time(x, y, z, gx, gy, gz, sigma, pend[0], pend[1], pend[2], pend[3], ptb[j] - t, pdv[j, 0], pdv[j, 1], pdv[j, 2])
 
 
+def contact_across_b(dx, dy, dz, gx, gy, gz, sigma, t, geo, horizon, pend, pending, j):
+    """:func:`.predict.pair_contact_time` of ``i`` (its pending B event ``pend``, :func:`pending_of`)
+    and ``j``; in eMD* runs a pair with a pending B event follows its velocity jumps
+    (:func:`.predict.pending_contact_time`; rare: called)."""
+    if pending is not None and (pend[0] < INF or pending[0][j] < INF):
+        return _across_b(dx, dy, dz, gx, gy, gz, sigma, t, geo, pend, pending, j)
+    return pair_contact_time(dx, dy, dz, gx, gy, gz, sigma, t, geo, horizon)
+
+
+@overload(contact_across_b, inline="always")
+def _contact_across_b_hook(dx, dy, dz, gx, gy, gz, sigma, t, geo, horizon, pend, pending, j):
+    if isinstance(pending, types.NoneType):
+        return lambda dx, dy, dz, gx, gy, gz, sigma, t, geo, horizon, pend, pending, j: pair_contact_time(dx, dy, dz, gx, gy, gz, sigma, t, geo, horizon)
+
+    def across(dx, dy, dz, gx, gy, gz, sigma, t, geo, horizon, pend, pending, j):
+        if pend[0] < INF or pending[0][j] < INF:
+            return _across_b(dx, dy, dz, gx, gy, gz, sigma, t, geo, pend, pending, j)
+        return pair_contact_time(dx, dy, dz, gx, gy, gz, sigma, t, geo, horizon)
+
+    return across
+
+
 @hot
-def _closer(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, best, bj, pend, ptb, pdv):
+def _closer(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, best, bj, pend, pending):
     """The earlier of the current best ``(dt, partner)`` and a contact of ``i`` (at ``x_i`` with
     ``v_i``, radius ``ri``; its pending B event ``pend``, :func:`pending_of`) with ``j`` (with a
     vibrating wall, :func:`.walls.ride_pair_dt`). In eMD* runs a pair with a pending B event
-    (``ptb``, ``pdv``: all particles') follows its velocity jumps (:func:`.predict.pending_contact_time`)."""
+    (``pending``: all particles', :func:`pending_arrays`) follows its velocity jumps (:func:`contact_across_b`)."""
     xj, yj, zj, vxj, vyj, vzj = flight(P, j, t, geo)
-    dx, dy, dz, gx, gy, gz = xi - xj, yi - yj, zi - zj, vxi - vxj, vyi - vyj, vzi - vzj
-    sigma = ri + P[j, L.R]
-    if ptb.shape[0] != 0 and (pend[0] < INF or ptb[j] < INF):  # (rare: the pair has a pending B event)
-        contact = _across_b(dx, dy, dz, gx, gy, gz, sigma, t, geo, pend, ptb, pdv, j)
-    else:
-        contact = pair_contact_time(dx, dy, dz, gx, gy, gz, sigma, t, geo, best)
+    contact = contact_across_b(xi - xj, yi - yj, zi - zj, vxi - vxj, vyi - vyj, vzi - vzj, ri + P[j, L.R], t, geo, best, pend, pending, j)
     dt = ride_pair_dt(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, contact)
     if dt < best:
         return dt, j
@@ -73,13 +116,13 @@ def _closer(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, best, bj, pend, ptb,
 
 
 @hot
-def _closest_in_walk(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, geo, cbuf, nc, s, j, best, bj, pend, ptb, pdv):
+def _closest_in_walk(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, geo, cbuf, nc, s, j, best, bj, pend, pending):
     """The earlier of ``(best, bj)`` and the contacts of ``i`` with the particles of a walk over
     cells (the cursor ``nc, s, j`` of :func:`.cells.walk_cells`), whose work it counts."""
     tested = 0
     while j >= 0:
         if j != i:
-            best, bj = _closer(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, best, bj, pend, ptb, pdv)
+            best, bj = _closer(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, best, bj, pend, pending)
             tested += 1
         nc, s, j = walk_next(grid, cbuf, nc, s, j)
     count_work(grid, nc, tested)
@@ -87,7 +130,7 @@ def _closest_in_walk(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, geo, cbuf, nc
 
 
 @leaf
-def scan_cells(i, t, P, count, ev, grid, geo, cbuf, axis, step, ptb, pdv):
+def scan_cells(i, t, P, count, ev, grid, geo, cbuf, axis, step, pending):
     """Improve the pair event of ``i`` with the particles of a block of cells (see ``cell_block``).
 
     Inlined into the crossings (:func:`cross_cell`), the most frequent event of a dilute gas: a
@@ -97,15 +140,15 @@ def scan_cells(i, t, P, count, ev, grid, geo, cbuf, axis, step, ptb, pdv):
     xi, yi, zi, vxi, vyi, vzi = flight(P, i, t, geo)
     nc, s, j = walk_cells(grid, grid.cell[i], geo, cbuf, axis, step, t, sliding_horizon(i, t, P, grid, geo))
     prefetch_firsts(grid, cbuf, nc, s, P)
-    best, bj = _closest_in_walk(i, xi, yi, zi, vxi, vyi, vzi, P[i, L.R], P, t, grid, geo, cbuf, nc, s, j, ev.pair_t[i] - t, -1, pending_of(i, t, ptb, pdv), ptb, pdv)
+    best, bj = _closest_in_walk(i, xi, yi, zi, vxi, vyi, vzi, P[i, L.R], P, t, grid, geo, cbuf, nc, s, j, ev.pair_t[i] - t, -1, pending_of(i, t, pending), pending)
     if bj >= 0:
         set_pair(ev, count, i, t + best, bj)
 
 
 @jit
-def scan_neighbourhood(i, t, P, count, ev, grid, geo, cbuf, ptb, pdv):
+def scan_neighbourhood(i, t, P, count, ev, grid, geo, cbuf, pending):
     """:func:`scan_cells` over the full neighbourhood of ``i``'s cell (called: one compiled copy)."""
-    scan_cells(i, t, P, count, ev, grid, geo, cbuf, np.int64(-1), np.int64(0), ptb, pdv)
+    scan_cells(i, t, P, count, ev, grid, geo, cbuf, np.int64(-1), np.int64(0), pending)
 
 
 @leaf
@@ -118,7 +161,7 @@ def prefetch_neighbours(P, lists, i):
 
 
 @hot
-def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate, skin, ptb, pdv):
+def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate, skin, pending):
     """Full re-prediction of the earliest contact of ``i`` (neighbour list or 3^d cells; with
     lists in a sheared box, also the partners across the sliding face, :func:`sliding_partners`).
 
@@ -135,15 +178,15 @@ def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, 
         bk = L.PAIR_CORE
         count_work(grid, 0, nbl_n[i])
         prefetch_neighbours(P, lists, i)
-        pend = pending_of(i, t, ptb, pdv)
+        pend = pending_of(i, t, pending)
         for s in range(nbl_n[i]):
             if grow:
                 best, bj = closer_grow(xi, yi, zi, vxi, vyi, vzi, ri, P, nbl[i, s], t, geo, rate, best, bj)
             elif well:
                 best, bj, bk = closer_well(xi, yi, zi, vxi, vyi, vzi, ri, P, pairs, i, nbl[i, s], t, geo, reach, best, bj, bk)
             else:
-                best, bj = _closer(i, xi, yi, zi, vxi, vyi, vzi, ri, P, nbl[i, s], t, geo, best, bj, pend, ptb, pdv)
-        best, bj = sliding_partners(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj, pend, ptb, pdv)
+                best, bj = _closer(i, xi, yi, zi, vxi, vyi, vzi, ri, P, nbl[i, s], t, geo, best, bj, pend, pending)
+        best, bj = sliding_partners(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj, pend, pending)
         if bj >= 0:
             set_pair(ev, count, i, t + best, bj)
             if well:
@@ -152,7 +195,7 @@ def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, 
     ev.pair_t[i] = INF
     ev.pair_j[i] = -1
     if mode != NB_LIST:
-        scan_neighbourhood(i, t, P, count, ev, grid, geo, cbuf, ptb, pdv)
+        scan_neighbourhood(i, t, P, count, ev, grid, geo, cbuf, pending)
 
 
 @leaf
@@ -239,7 +282,7 @@ def _sliding_horizon_hook(i, t, P, grid, geo):
 
 
 @jit
-def _sliding_partners(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj, pend, ptb, pdv):
+def _sliding_partners(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj, pend, pending):
     side = face_side(grid, grid.cell[i])
     if grid.shape[1] < 3:  # a single row is also the row across: all of it (listed partners again, harmlessly)
         nc, s, j = walk_cells(grid, grid.cell[i], geo, cbuf, np.int64(-1), np.int64(0), t, INF)
@@ -248,10 +291,10 @@ def _sliding_partners(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, 
         nc, s, j = walk_cells(grid, grid.cell[i], geo, cbuf, np.int64(1), np.int64(side), t, horizon)
     else:
         return best, bj
-    return _closest_in_walk(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, geo, cbuf, nc, s, j, best, bj, pend, ptb, pdv)
+    return _closest_in_walk(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, geo, cbuf, nc, s, j, best, bj, pend, pending)
 
 
-def sliding_partners(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj, pend, ptb, pdv):
+def sliding_partners(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj, pend, pending):
     """Improve the earliest contact ``(best, bj)`` of ``i`` (at ``x_i`` with ``v_i``) in list mode
     with the partners across a sliding Lees-Edwards face, which the lists leave out
     (:func:`.images.listing_distance2`): the particles whose list centres lie in the cells of the
@@ -264,17 +307,17 @@ def sliding_partners(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, c
     shell of :func:`.nblist.shell_exit_time` (shear refuses gravity and the vibrating wall).
     """
     if sheared(geo):
-        return _sliding_partners(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj, pend, ptb, pdv)
+        return _sliding_partners(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj, pend, pending)
     return best, bj
 
 
 @overload(sliding_partners, inline="always")
-def _sliding_partners_hook(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj, pend, ptb, pdv):
+def _sliding_partners_hook(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj, pend, pending):
     if sheared_type(geo):
-        return lambda i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj, pend, ptb, pdv: _sliding_partners(
-            i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj, pend, ptb, pdv
+        return lambda i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj, pend, pending: _sliding_partners(
+            i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj, pend, pending
         )
-    return lambda i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj, pend, ptb, pdv: (best, bj)
+    return lambda i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj, pend, pending: (best, bj)
 
 
 @hot
@@ -405,18 +448,18 @@ def requeue(q, ev, i):
 
 
 @jit
-def repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb, pdv, bath_t, pairs):
+def repredict(i, t, P, count, ev, q, grid, lists, geo, mode, fp, ip, cbuf, ptb, pending, bath_t, pairs):
     """Both candidate events of ``i`` after its flight changed, and its calendar key.
 
     Compiled once and called (eMD* exception b, white-noise kicks); the loop inlines the same steps.
     """
-    predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, ip[L.IP_WELL] != 0, well_reach(fp), False, 0.0, fp[L.FP_SKIN], ptb, pdv)
+    predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, ip[L.IP_WELL] != 0, well_reach(fp), False, 0.0, fp[L.FP_SKIN], pending)
     predict_aux(i, t, P, ev, grid, lists, geo, mode, ip[L.IP_WALLS] != 0, ip[L.IP_WALLS], ip[L.IP_EMD] != 0, fp[L.FP_SKIN], ptb, ip[L.IP_BATH] != 0, bath_t, False, 0.0)
     requeue(q, ev, i)
 
 
 @hot
-def cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf, ptb, pdv):
+def cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf, pending):
     """Move ``i`` into the neighbouring cell (by direction, never by flooring) and scan the new layer."""
     gi = grid.shape
     k = (kind - L.AUX_CELL) >> 1
@@ -425,7 +468,7 @@ def cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf, ptb, pdv):
     ny, nz = gi[1], gi[2]
     cx, cy, cz = c // (ny * nz), (c // nz) % ny, c % nz
     ck = (cx, cy, cz)[k] + step
-    if k == 1 and (ck == gi[1] or ck < 0) and cross_sheared_face(i, t, 1 if ck > 0 else -1, P, image, count, ev, grid, geo, cbuf, ptb, pdv):
+    if k == 1 and (ck == gi[1] or ck < 0) and cross_sheared_face(i, t, 1 if ck > 0 else -1, P, image, count, ev, grid, geo, cbuf, pending):
         return
     if ck == gi[k]:
         ck = 0
@@ -443,11 +486,11 @@ def cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf, ptb, pdv):
         cz = ck
     cell_remove(grid, i)
     cell_insert(grid, i, (cx * ny + cy) * nz + cz)
-    scan_cells(i, t, P, count, ev, grid, geo, cbuf, k, step, ptb, pdv)
+    scan_cells(i, t, P, count, ev, grid, geo, cbuf, k, step, pending)
 
 
 @jit
-def _cross_sheared_face(i, t, shift, P, image, count, ev, grid, geo, cbuf, ptb, pdv):
+def _cross_sheared_face(i, t, shift, P, image, count, ev, grid, geo, cbuf, pending):
     advance(P, i, t, geo)
     cross_y_face(P, image, i, shift, t, geo)
     ny, nz = grid.shape[1], grid.shape[2]
@@ -455,27 +498,27 @@ def _cross_sheared_face(i, t, shift, P, image, count, ev, grid, geo, cbuf, ptb, 
     cx = cell_of_point(P[i, L.X], 0.0, 0.0, geo, grid) // (ny * nz)
     cell_remove(grid, i)
     cell_insert(grid, i, (cx * ny + (0 if shift > 0 else ny - 1)) * nz + c % nz)
-    scan_neighbourhood(i, t, P, count, ev, grid, geo, cbuf, ptb, pdv)
+    scan_neighbourhood(i, t, P, count, ev, grid, geo, cbuf, pending)
 
 
-def cross_sheared_face(i, t, shift, P, image, count, ev, grid, geo, cbuf, ptb, pdv):
+def cross_sheared_face(i, t, shift, P, image, count, ev, grid, geo, cbuf, pending):
     """A cell crossing of ``i`` through the y face of a sheared box (``shift``: +1 upwards, -1
     downwards): it becomes its image (:func:`.images.cross_y_face`) in the cell of its new x on the
     opposite face and scans its whole new neighbourhood (its x jumped by the offset). Returns
     whether the box is sheared (otherwise nothing is done: a plain periodic crossing)."""
     if sheared(geo):
-        _cross_sheared_face(i, t, shift, P, image, count, ev, grid, geo, cbuf, ptb, pdv)
+        _cross_sheared_face(i, t, shift, P, image, count, ev, grid, geo, cbuf, pending)
         return True
     return False
 
 
 @overload(cross_sheared_face, inline="always")
-def _cross_sheared_face_hook(i, t, shift, P, image, count, ev, grid, geo, cbuf, ptb, pdv):
+def _cross_sheared_face_hook(i, t, shift, P, image, count, ev, grid, geo, cbuf, pending):
     if not sheared_type(geo):
-        return lambda i, t, shift, P, image, count, ev, grid, geo, cbuf, ptb, pdv: False
+        return lambda i, t, shift, P, image, count, ev, grid, geo, cbuf, pending: False
 
-    def impl(i, t, shift, P, image, count, ev, grid, geo, cbuf, ptb, pdv):
-        _cross_sheared_face(i, t, shift, P, image, count, ev, grid, geo, cbuf, ptb, pdv)
+    def impl(i, t, shift, P, image, count, ev, grid, geo, cbuf, pending):
+        _cross_sheared_face(i, t, shift, P, image, count, ev, grid, geo, cbuf, pending)
         return True
 
     return impl

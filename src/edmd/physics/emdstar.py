@@ -365,6 +365,8 @@ def emd_bundle(n: int, rule: EMDStar | None, pending=None, dim: int = 3, species
     tangential = NO_FRICTION_TABLE
     if rule is not None and rule.friction_table:
         tangential = friction_table(rule.contact, rule.friction, 0.4 if dim == 3 else 0.5)
+    if rule is None:  # (a 1-D array: its type tells the compiled predictors that nothing is pending, schedule.pending_of)
+        dv = np.zeros(0)
     pending = (np.ascontiguousarray(dv, float), np.ascontiguousarray(tb, float), np.ascontiguousarray(pj, np.int32))
     pair = NO_PAIR_TABLE
     table = None if rule is None else rule.table()
