@@ -328,7 +328,8 @@ def _make_emd_contact(frictional):
 
         Exception b) first: pending B events of either partner are executed now (and, with
         post-collisional communication, those of their former partners); if the pair no longer
-        approaches, the contact is discarded (``CONTACT_DISCARDED``). Then the A event: the matrix of
+        approaches (after those, or after a B event whose time its contact's rounded onto), the
+        contact is discarded (``CONTACT_DISCARDED``). Then the A event: the matrix of
         restitution (:func:`smooth_map`) or the frictional solver (:func:`frictional_map`), relocation unless it would overlap a third particle or a wall (exception a), pending
         increments and B events at ``t + t_c`` (``CONTACT_SOFT``). Exception a), overlapping pairs
         and failed solves fall back to the instantaneous rule with the contact law's central
@@ -344,8 +345,8 @@ def _make_emd_contact(frictional):
                 if is_pending(emd, p):
                     finish_contact(p, i, j, t, part, acc, ev, q, grid, lists, geo, mode, fp, ip, cbuf, emd, bath_t, pairs)
         dx, dy, dz, gx, gy, gz = separation(P, i, j, t, geo)
-        if exception_b and dx * gx + dy * gy + dz * gz >= 0.0:
-            return CONTACT_DISCARDED
+        if dx * gx + dy * gy + dz * gz >= 0.0:  # (also a contact predicted just before a kept B event
+            return CONTACT_DISCARDED  # whose time rounded onto it: the B event came first)
         sigma = P[i, L.R] + P[j, L.R]
         if dx * dx + dy * dy + dz * dz < (sigma * (1.0 - 1e-9)) ** 2:
             return CONTACT_INSTANT  # overlapping and approaching: no contact geometry to start from
