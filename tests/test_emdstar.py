@@ -243,7 +243,7 @@ def test_cells_and_lists_give_the_same_contacts(dim):
 def test_kept_predictions_match_re_predicting_at_b_events(dim):
     """physics.md §4.8 (predictions across B events): a B event keeps the predictions made while
     the contact was pending (they followed the jump). Runs with the vibrating wall re-predict at
-    every B event instead (emdstar.keeps_predictions); with an amplitude that vanishes in floating
+    every B event instead (the B event in loop.py); with an amplitude that vanishes in floating
     point (1e-200) the two paths must give the same contacts, and every contact must approach."""
     periodic = [True] * (dim - 1) + [False]
     state = edmd.maxwell_boltzmann(edmd.random_packing(300, 0.1, dim=dim, periodic=periodic, seed=7), 1.0, seed=8)

@@ -29,7 +29,6 @@ spins at A is the same dynamics as at B, and the State needs no pending spin.
 import math
 
 import numpy as np
-from numba.extending import overload
 
 from . import layout as L
 from .cells import cell_insert, cell_of_point, cell_remove, count_work, walk_around, walk_next
@@ -43,7 +42,7 @@ from .schedule import pending_arrays, repredict, set_pair, wrap_into_box
 from .stress import committed_current, drift_flux, energy_virial, impulse_tensor, particle_current, particle_energy, virial_tensor
 from .twobody import collision_frame, lab_frame_update
 from .twobody_friction import frictional_update
-from .wallmotion import has_wall, vibrating_type, wall_planes
+from .wallmotion import wall_planes
 from .walls import ride_pair_dt
 
 
@@ -59,7 +58,7 @@ def execute_b(p, t, P, count, emd, geo):
 
     The event counter is left alone: predictions made while the contact was pending followed the
     jump (:func:`.predict.pending_contact_time`), so on schedule they stay valid; an early B event
-    (:func:`_early_b`) and the vibrating wall's runs (:func:`keeps_predictions`) bump it.
+    (:func:`_early_b`) and, in the event loop, the vibrating wall's runs bump it.
     """
     pdv, ptb, pj = emd.pending_dv, emd.pending_until, emd.partner
     advance(P, p, t, geo)
@@ -71,20 +70,6 @@ def execute_b(p, t, P, count, emd, geo):
     pdv[p, 2] = 0.0
     ptb[p] = INF
     pj[p] = -1
-
-
-def keeps_predictions(P, geo):
-    """Whether an on-schedule B event keeps the particle's predictions (see :func:`execute_b`):
-    always, except with the vibrating wall, whose riders' contact times follow straight flights
-    (:func:`.walls.ride_pair_dt`), so there a B event re-predicts the particle."""
-    return not (has_wall(geo) and P.shape[1] > L.ROW)
-
-
-@overload(keeps_predictions, inline="always")
-def _keeps_predictions_hook(P, geo):
-    if vibrating_type(geo):
-        return lambda P, geo: P.shape[1] <= L.ROW
-    return lambda P, geo: True
 
 
 @leaf

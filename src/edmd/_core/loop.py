@@ -19,7 +19,7 @@ from . import layout as L
 from .bath import bath_event
 from .cells import bin_all, walk_around, walk_next
 from .collide import collide_pair, collide_wall
-from .emdstar import emd_contact, emd_contact_frictional, execute_b, finish_contact, is_pending, keeps_predictions
+from .emdstar import emd_contact, emd_contact_frictional, execute_b, finish_contact, is_pending
 from .forcing import white_noise_kick
 from .jit import hot, jit, leaf
 from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTACT_GROWN, CONTACT_SOFT, CONTACT_WELL, NB_LIST, NORMAL_SOFT, TANGENT_SMOOTH
@@ -262,10 +262,10 @@ def _make_loop(walls, emd_on, rough, normal, bath_on, kick_on, well, grow):
                 cnt[L.C_AUX] += 1
                 if emd_on and kind == L.AUX_B:
                     execute_b(i, t, P, count, emd, geo)
-                    if keeps_predictions(P, geo):  # (its pair predictions followed the jump)
-                        pair = False
-                    else:
+                    if has_wall(geo):  # (a rider's contact times follow straight flights: re-predict)
                         count[i] += 1
+                    else:  # (its pair predictions followed the jump, physics.md §4.8)
+                        pair = False
                 elif (walls and kind >= L.AUX_WALL and kind < L.AUX_WALL_END) or (bath_on and kind == L.AUX_BATH):
                     # a wall or the bath changes the particle's velocity: as a third body, it ends a
                     # pending soft contact first (the bath acts on the committed velocity)
