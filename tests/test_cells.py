@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from edmd._core.cells import cell_block, cells_buffer_size, crossing_time, grid_shape, near_block, new_grid
+from edmd._core.cells import cell_block, cells_buffer_size, crossing_time, grid_shape, near_block, new_grid, walk_block
 from edmd._core.images import image_offset
 from edmd._core.layout import make_geo
 
@@ -85,6 +85,53 @@ def test_layer_after_crossing_is_the_new_neighbourhood_part():
     layer = set(out[: cell_block(grid, new, make_geo(box, half), out, 0, 1, 0.0, math.inf)].tolist())
     assert layer == full_new - full_old
     assert len(layer) == 9
+
+
+def _block(cc, nc, periodic, reach):
+    """Brute force: the cells within ``reach`` cells of coordinates ``cc`` on every axis."""
+    want = set()
+    for off in itertools.product(range(-reach, reach + 1), repeat=3):
+        q = []
+        for k in range(3):
+            x = cc[k] + off[k]
+            if nc[k] == 1:
+                x = 0
+            elif periodic[k]:
+                x %= nc[k]
+            elif not 0 <= x < nc[k]:
+                break
+            q.append(x)
+        else:
+            want.add((q[0] * nc[1] + q[1]) * nc[2] + q[2])
+    return want
+
+
+@pytest.mark.parametrize("reach", [1, 2, 3])
+@pytest.mark.parametrize("nc, periodic", [((8, 9, 10), (1, 1, 1)), ((8, 8, 1), (1, 1, 0)), ((7, 3, 8), (0, 0, 1))])
+def test_walk_block_covers_reach_cells_and_the_layer_after_a_crossing(nc, periodic, reach):
+    # a big particle's block (cells.walk_block): every cell within reach once (periodic axes have
+    # the 2 reach + 2 cells the engine asks for), and after a crossing exactly the cells it did not cover before
+    box = np.array(nc, float)
+    geo = make_geo(box, np.where(np.array(periodic, bool), 0.5 * box, np.inf))
+    grid = new_grid(1, box, np.array(nc), np.array([0], np.int32), reach, 0.25)
+    cbuf = np.empty(cells_buffer_size(nc, False, reach), np.int32)
+
+    def cells(c, axis, step):
+        n = walk_block(grid, c, geo, cbuf, axis, step, reach)[0]
+        got = cbuf[:n].tolist()
+        assert len(got) == len(set(got))
+        return set(got)
+
+    for c in range(int(np.prod(nc))):
+        cc = _coords(c, nc)
+        assert cells(c, -1, 0) == _block(cc, nc, periodic, reach)
+        for axis, step in itertools.product(range(3), (-1, 1)):
+            before = list(cc)
+            before[axis] -= step  # (the crossing came from there)
+            if nc[axis] == 1 or (not periodic[axis] and not 0 <= before[axis] < nc[axis]):
+                continue
+            before[axis] %= nc[axis]
+            assert cells(c, axis, step) == _block(cc, nc, periodic, reach) - _block(before, nc, periodic, reach)
 
 
 def test_grid_shape_uses_one_cell_on_short_periodic_axes():

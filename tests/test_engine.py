@@ -5,6 +5,9 @@ import pytest
 
 import edmd
 from edmd._core import layout as L
+from edmd._core.cells import GI_BIGS, GI_REACH
+from edmd import LinearDashpot
+from edmd.physics.emdstar import EMDStar
 from edmd.run.engine import EngineOptions
 from reference import run_reference
 
@@ -60,6 +63,68 @@ def test_wide_cells_with_a_size_ratio_of_ten_match_brute_force(dim, cell_size):
     _assert_brute_force(sim, s, t_end, n // 2)
     sim.run(max_events=100_000)
     assert abs(sim.state.kinetic_energy() / s.kinetic_energy() - 1) < 1e-10
+
+
+def _intruders(dim, n, bigs, ratio, eta, seed=9, **kwargs):
+    """``bigs`` particles of radius 1 among ``n`` of radius ``1 / ratio`` (equal masses: no fast dust
+    amplifying round-off), Maxwell-Boltzmann velocities."""
+    radius = {"kind": "discrete", "values": [1.0 / ratio, 1.0], "fractions": [1 - bigs / n, bigs / n]}
+    s = edmd.random_packing(n, eta, dim=dim, seed=seed, radius=radius, **kwargs)
+    return edmd.maxwell_boltzmann(s, 1.0, seed=seed + 1)
+
+
+def _assert_big_split(sim, bigs):
+    """Cells mode took ``bigs`` big particles out of the cell size, which scan more than 1 cell around."""
+    grid = sim.engine.grid
+    assert sim.engine.mode == "cells" and grid.shape[GI_BIGS] == bigs and grid.shape[GI_REACH] >= 2
+    assert np.all(sim.engine.part.rows[grid.head[-bigs:], L.R] == 1.0)
+
+
+@pytest.mark.parametrize("slow_case", [False, pytest.param(True, marks=pytest.mark.slow)], ids=["fast", "ratio-10-3d"])
+def test_big_particles_match_brute_force(dim, slow_case):
+    # intruders of size ratio 10 (3D: 5 in the fast case, whose box must fit their blocks with a
+    # reference that stays quick) among small particles: cells sized for the small ones, the
+    # bigs' blocks of cells and the tests of every big by every scan (physics.md §1.4 "Big
+    # particles") give the reference's collisions, then run on with the debug checks
+    if slow_case and dim == 2:
+        pytest.skip("the 2D case is the fast one")
+    n, bigs, ratio, eta, t_end = {2: (150, 2, 10, 0.1, 2.0), 3: (400, 2, 10, 0.03, 2.0) if slow_case else (200, 3, 5, 0.05, 2.4)}[dim]
+    s = _intruders(dim, n, bigs, ratio, eta)
+    sim = edmd.Simulation(s, engine=EngineOptions(neighbours="cells", debug=True))
+    _assert_big_split(sim, bigs)
+    _assert_brute_force(sim, s, t_end, n // 2)
+    sim.run(max_events=50_000)
+    assert abs(sim.state.kinetic_energy() / s.kinetic_energy() - 1) < 1e-10
+
+
+def test_big_particles_agree_with_lists(dim):
+    """A larger gas with five intruders of size ratio 10: cells with big particles and neighbour
+    lists (the other structure, whose lists hold every partner of a big) meet the same collisions."""
+    s = _intruders(dim, 3000, 5, 10, 0.05 if dim == 3 else 0.1, seed=5)
+    logs = []
+    for mode in MODES:
+        sim = edmd.Simulation(s, engine=EngineOptions(neighbours=mode))
+        if mode == "cells":
+            _assert_big_split(sim, 5)
+        sim.engine.enable_log()
+        sim.run(until_time=0.5)
+        logs.append(sim.engine.take_log())
+    big = np.flatnonzero(s.radius == 1.0)
+    assert len(logs[0]) == len(logs[1]) > 1000
+    assert np.isin(logs[0][:, 1:3], big).any(axis=1).sum() > 20
+    assert np.array_equal(np.sort(logs[0][:, 1:3], axis=1), np.sort(logs[1][:, 1:3], axis=1))
+    assert np.abs(logs[0][:, 0] - logs[1][:, 0]).max() < 1e-9
+
+
+def test_big_particles_are_not_split_where_they_cannot_be(dim):
+    """eMD* (whose relocation scans look one cell around) and a fixed cell size keep the cells as
+    wide as the largest contact."""
+    s = _intruders(dim, 3000, 5, 10, 0.05 if dim == 3 else 0.1, seed=5)
+    emd = edmd.Simulation(s, collision=EMDStar(LinearDashpot(k=1e4, gamma=20.0)), engine=EngineOptions(neighbours="cells"))
+    fixed = edmd.Simulation(s, engine=EngineOptions(neighbours="cells", cell_size=1.0))
+    for sim in (emd, fixed):
+        assert sim.engine.grid.shape[GI_BIGS] == 0
+        assert np.all(sim.engine.grid.size[:dim] >= 2.0 - 1e-12)
 
 
 def test_neighbour_modes_agree_on_a_collision_sequence(dim):

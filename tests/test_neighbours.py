@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from edmd.run.neighbours import cell_cost, cell_edge, local_densities, mean_free_path
+from edmd.run.neighbours import MAX_BIGS, big_count, cell_cost, cell_edge, local_densities, mean_free_path
 
 
 def test_mean_free_path_has_the_boltzmann_dilute_limit(dim):
@@ -76,3 +76,16 @@ def test_crowded_small_particles_do_not_blow_up_the_cells(dim):
     n_close = (0.6 / (math.pi / 6.0)) if dim == 3 else (0.8 / (math.pi / 4.0))
     edge = cell_edge([0.01, 2.0 * n_close], 1.0, 1.0, dim, weights=[10, 1000])
     assert edge == pytest.approx(cell_edge(n_close, 1.0, 1.0, dim), rel=0.05) and edge < 2.0
+
+
+def test_a_few_big_particles_are_taken_out_of_the_cell_size(dim):
+    """An intruder (size ratio 10) in a gas is taken out; so are a few large ones, never more than
+    MAX_BIGS, never a tie, never particles whose sizes barely differ (nothing to gain)."""
+    n = 0.05 / (math.pi / 6.0) if dim == 3 else 0.05 / (math.pi / 4.0)
+    small = np.full(9990, 0.5)
+    assert big_count(np.r_[5.0, small], n, dim) == 1
+    assert big_count(np.r_[5.0, 4.0, 3.0, small], n, dim) == 3
+    assert big_count(np.r_[np.full(MAX_BIGS + 1, 5.0), small], n, dim) == 0  # (a tie at the cap: none split)
+    assert big_count(np.r_[0.52, small], n, dim) == 0
+    assert big_count(small, n, dim) == 0
+    assert big_count(np.linspace(0.1, 1.0, 10000), n, dim) == 0

@@ -145,22 +145,33 @@ def test_energy_balance_with_gravity_walls_and_rough_particles(dim):
     assert sim.totals().wall_collisions > 100
 
 
-@pytest.mark.parametrize("mode", ["list", "cells"])
-def test_column_in_gravity_matches_brute_force(dim, mode):
-    """Inelastic disks/spheres between a floor and a ceiling in gravity, periodic sideways.
+@pytest.mark.parametrize("mode, intruders", [("list", False), ("cells", False), ("cells", True)])
+def test_column_in_gravity_matches_brute_force(dim, mode, intruders):
+    """Inelastic disks/spheres between a floor and a ceiling in gravity, periodic sideways; also
+    two intruders (a Brazil-nut bed: size ratio 10 in 2D, 5 in 3D, equal masses) taken out of
+    cells mode's cell size (physics.md §1.4 "Big particles").
 
     Same collision and wall-bounce sequence as the independent reference (eager updates,
     np.roots for the wall parabolas) and the same final state to 1e-9.
     """
     from reference import run_reference
 
+    from edmd._core.cells import GI_BIGS
+
     periodic = [True] * (dim - 1) + [False]
-    n, t_end = (60, 2.5) if dim == 2 else (150, 1.2)  # short enough that chaos keeps round-off < 1e-9
-    s = edmd.random_packing(n, 0.2, dim=dim, periodic=periodic, seed=7, aspect=[1] * (dim - 1) + [2], radius={"kind": "uniform", "min": 0.4, "max": 0.6}, density=1.0)
+    aspect = [1] * (dim - 1) + [2]
+    if intruders:  # (short enough that chaos keeps round-off < 1e-9)
+        n, eta, t_end, small = (150, 0.1, 1.4, 0.1) if dim == 2 else (300, 0.03, 1.2, 0.2)
+        radius, density = {"kind": "discrete", "values": [small, 1.0], "fractions": [1 - 2 / n, 2 / n]}, None
+    else:
+        n, eta, t_end = (60, 0.2, 2.5) if dim == 2 else (150, 0.2, 1.2)
+        radius, density = {"kind": "uniform", "min": 0.4, "max": 0.6}, 1.0
+    s = edmd.random_packing(n, eta, dim=dim, periodic=periodic, seed=7, aspect=aspect, radius=radius, density=density)
     s = edmd.maxwell_boltzmann(s, 1.0, seed=8)
     g = np.zeros(dim)
     g[-1] = -2.0
     sim = edmd.Simulation(s, e_n=0.9, walls=collide.Wall(e_n=0.8), gravity=g, engine={"neighbours": mode, "debug": True})
+    assert sim.engine.grid.shape[GI_BIGS] == (2 if intruders else 0)
     sim.engine.enable_log()
     bounces = []
     while sim.time < t_end:
@@ -172,7 +183,7 @@ def test_column_in_gravity_matches_brute_force(dim, mode):
     pos, vel, ref = run_reference(s.position, s.velocity, s.radius, s.mass, s.box, t_end, e_n=0.9, gravity=g, periodic=periodic, e_wall=0.8)
     ref_pairs = np.array([r for r in ref if r[2] >= 0])
     ref_walls = np.array([r[0] for r in ref if r[2] < 0])
-    assert len(ref_walls) > 10 and len(ref_pairs) > n
+    assert len(ref_walls) > 10 and len(ref_pairs) > (n // 3 if intruders else n)
     assert np.array_equal(np.sort(log[:, 1:3], axis=1).astype(int), ref_pairs[:, 1:].astype(int))
     assert np.abs(log[:, 0] - ref_pairs[:, 0]).max() < 1e-9
     assert np.abs(np.array(bounces) - ref_walls).max() < 1e-9

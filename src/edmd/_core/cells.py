@@ -2,13 +2,20 @@
 
 The grid is :class:`.bundles.Grid` ``(head, link, cell, shape, size)``: ``head[c]`` is the
 first particle of cell ``c`` and ``link`` links the rest (singly linked, cells are small);
-``cell[i]`` is the cell a particle is registered in; ``shape = [ncx, ncy, ncz, scanned, tested]``
-(``gi`` here): the cells per axis, then the cells scanned and the pairs tested by the event
-loop's predictions (:func:`count_work`; in ``shape``, not a field of their own: one more array
-in the bundle that the called cell functions take by value ran cell-mode gases at 0.65 of the
-speed, measured); ``size = [lx, ly, lz, 1/lx, 1/ly, 1/lz, r_max, r_min]`` (``gf``): the cell
-lengths, their inverses, and (a grid of list centres) the largest and smallest radius of the
-binned particles, set by :func:`.nblist.build_lists`.
+``cell[i]`` is the cell a particle is registered in; ``shape = [ncx, ncy, ncz, scanned, tested,
+bigs, reach]`` (``gi`` here): the cells per axis, then the cells scanned and the pairs tested by
+the event loop's predictions (:func:`count_work`; in ``shape``, not a field of their own: one
+more array in the bundle that the called cell functions take by value ran cell-mode gases at
+0.65 of the speed, measured), then the big particles' count and reach (below); ``size = [lx, ly,
+lz, 1/lx, 1/ly, 1/lz, r_max, r_min, r_small]`` (``gf``): the cell lengths, their inverses, (a grid
+of list centres) the largest and smallest radius of the binned particles, set by
+:func:`.nblist.build_lists`, and the largest radius that is not big.
+
+**Big particles** (cells mode, physics.md §1.4 "Big particles"): a few particles much larger than
+the rest would make every cell as wide as their contacts. Instead the cells are sized for the
+others (radii up to ``r_small``), and the bigs (radius above it; their indices follow the cells'
+heads in ``head``) are binned like every particle but scan ``reach`` cells to each side
+(:func:`walk_block`), and every scan also tests every big (:func:`.schedule.scan_cells`).
 The box spans ``[-L/2, L/2)`` on every axis. A periodic axis has at least three cells or
 exactly one (then the neighbour search does not look along it); an open axis any number. The
 event loop's cells mode needs four on a periodic axis: with three, two cells are adjacent
@@ -32,9 +39,11 @@ from .prefetch import prefetch
 
 #: index in ``Grid.shape`` of the work counters (cells scanned, then pairs tested)
 GI_WORK = 3
+#: indices in ``Grid.shape`` of the number of big particles and of the cells a big scans to each side
+GI_BIGS, GI_REACH = 5, 6
 #: indices in ``Grid.size`` of the largest and the smallest radius of the particles whose list
-#: centres are binned
-GF_RMAX, GF_RMIN = 6, 7
+#: centres are binned, and of the largest radius that is not big
+GF_RMAX, GF_RMIN, GF_RSMALL = 6, 7, 8
 #: no gaps: :func:`cell_block` keeps every neighbour cell
 NO_GAPS = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 #: the number of particles from which a walk prefetches the rows of the cells' first particles
@@ -55,22 +64,34 @@ def grid_shape(box, periodic, min_cell):
     return nc
 
 
-def new_grid(n, box, nc):
-    """Allocate an empty grid for ``n`` particles with ``nc`` cells per axis."""
-    gi = np.zeros(GI_WORK + 2, np.int64)
+def new_grid(n, box, nc, bigs=(), reach=1, r_small=math.inf):
+    """Allocate an empty grid for ``n`` particles with ``nc`` cells per axis; ``bigs``: the indices
+    of the big particles (radius above ``r_small``), which scan ``reach`` cells to each side."""
+    gi = np.zeros(GI_REACH + 1, np.int64)
     gi[:3] = nc
-    gf = np.zeros(GF_RMIN + 1)
+    gi[GI_BIGS] = len(bigs)
+    gi[GI_REACH] = reach
+    gf = np.zeros(GF_RSMALL + 1)
     for k in range(3):
         length = box[k] if np.isfinite(box[k]) else 1.0
         gf[k] = length / nc[k]
         gf[3 + k] = 1.0 / gf[k]
-    return Grid(
-        np.full(int(np.prod(nc)), -1, np.int32),
-        np.full(n, -1, np.int32),
-        np.zeros(n, np.int32),
-        gi,
-        gf,
-    )
+    gf[GF_RSMALL] = r_small
+    head = np.full(int(np.prod(nc)) + len(bigs), -1, np.int32)
+    head[head.size - len(bigs) :] = bigs
+    return Grid(head, np.full(n, -1, np.int32), np.zeros(n, np.int32), gi, gf)
+
+
+@leaf
+def cell_count(grid):
+    """The number of cells (``head`` holds the big particles after them)."""
+    return grid.shape[0] * grid.shape[1] * grid.shape[2]
+
+
+@leaf
+def reach_of(grid, r):
+    """Cells a particle of radius ``r`` scans to each side: the bigs' reach, or 1."""
+    return grid.shape[GI_REACH] if r > grid.size[GF_RSMALL] else 1
 
 
 @leaf
@@ -106,7 +127,7 @@ def cell_insert(grid, i, c):
 @jit
 def bin_all(pos, geo, grid):
     """Empty ``grid`` and bin every particle by the first three columns of ``pos`` (x, y, z)."""
-    grid.head[:] = -1
+    grid.head[: cell_count(grid)] = -1
     for i in range(pos.shape[0]):
         cell_insert(grid, i, cell_of_point(pos[i, 0], pos[i, 1], pos[i, 2], geo, grid))
 
@@ -128,13 +149,14 @@ def cell_remove(grid, i):
 
 
 @leaf
-def _offsets(k, nc, axis, step):
-    """Offsets searched on axis ``k``: the crossing direction only on ``axis``, else -1..1."""
+def _offsets(k, nc, axis, step, reach):
+    """Offsets searched on axis ``k``: ``reach`` cells in the crossing direction only on ``axis``,
+    else ``-reach..reach``."""
     if k == axis:
-        return step, step
+        return step * reach, step * reach
     if nc == 1:
         return 0, 0
-    return -1, 1
+    return -reach, reach
 
 
 @leaf
@@ -161,7 +183,7 @@ def cell_block(grid, c, geo, out, axis, step, t, horizon):
     n = sheared_block(grid, c, geo, out, axis, step, t, horizon)
     if n >= 0:
         return n
-    return _plain_block(geo, out, _block_frame(grid, c, axis, step), NO_GAPS, INF)
+    return _plain_block(geo, out, _block_frame(grid, c, axis, step, 1), NO_GAPS, INF)
 
 
 @leaf
@@ -179,7 +201,7 @@ def near_block(grid, c, geo, out, x, y, z, reach):
     n = sheared_block(grid, c, geo, out, np.int64(-1), np.int64(0), 0.0, NOT_ACROSS)
     if n >= 0:
         return n
-    frame = _block_frame(grid, c, np.int64(-1), np.int64(0))
+    frame = _block_frame(grid, c, np.int64(-1), np.int64(0), 1)
     cx, cy, cz = frame[3], frame[4], frame[5]
     gaps = (*_face_gaps(grid, geo, 0, cx, x), *_face_gaps(grid, geo, 1, cy, y), *_face_gaps(grid, geo, 2, cz, z))
     return _plain_block(geo, out, frame, gaps, reach * reach * (1.0 + 1e-9))
@@ -223,16 +245,16 @@ def _plain_block(geo, out, frame, gaps, room):
 
 
 @leaf
-def _block_frame(grid, c, axis, step):
+def _block_frame(grid, c, axis, step, reach):
     """Cells per axis, the coordinates of cell ``c`` and the offsets searched on each axis (:func:`_offsets`)."""
     gi = grid.shape
     nx, ny, nz = gi[0], gi[1], gi[2]
     cz = c % nz
     cy = (c // nz) % ny
     cx = c // (nz * ny)
-    lox, hix = _offsets(0, nx, axis, step)
-    loy, hiy = _offsets(1, ny, axis, step)
-    loz, hiz = _offsets(2, nz, axis, step)
+    lox, hix = _offsets(0, nx, axis, step, reach)
+    loy, hiy = _offsets(1, ny, axis, step, reach)
+    loz, hiz = _offsets(2, nz, axis, step, reach)
     return nx, ny, nz, cx, cy, cz, lox, hix, loy, hiy, loz, hiz
 
 
@@ -282,15 +304,15 @@ NOT_ACROSS = -1.0
 
 @leaf
 def _sheared_block(grid, c, geo, out, axis, step, t, horizon):
-    nx, ny, nz, cx, cy, cz, lox, hix, loy, hiy, loz, hiz = _block_frame(grid, c, axis, step)
+    nx, ny, nz, cx, cy, cz, lox, hix, loy, hiy, loz, hiz = _block_frame(grid, c, axis, step, 1)
     pz = geo[5] < INF
     n = 0
-    ylo, yhi = _offsets(1, ny, -1, 0)
+    ylo, yhi = _offsets(1, ny, -1, 0, 1)
     for oy in range(ylo, yhi + 1):
         y2 = _shift(cy, oy, ny, True)
         if y2 != cy + oy or ny < 3:  # the row across the face (a single row is also the row across: whole)
             x0, count = _sliding_window(nx, cx, oy > 0, t, INF if ny < 3 else horizon, geo)
-            zlo, zhi = _offsets(2, nz, -1, 0)
+            zlo, zhi = _offsets(2, nz, -1, 0, 1)
             for ox in range(count):
                 n = _z_column(out, n, (x0 + ox) % nx, y2, cz, zlo, zhi, ny, nz, pz, INF, 0.0, 0.0)
         elif loy <= oy and oy <= hiy:
@@ -331,15 +353,16 @@ def face_side(grid, c):
     return 1 if cy == ny - 1 else -1 if cy == 0 else 0
 
 
-def cells_buffer_size(nc, shear: bool) -> int:
+def cells_buffer_size(nc, shear: bool, reach: int = 1) -> int:
     """Cells a walk may visit at once (:func:`cell_block`): 27, or with shear the two rows of 3 x 3
-    beside a face and the whole row across it.
+    beside a face and the whole row across it, or with big particles their block of
+    :math:`(2\\,\\mathrm{reach} + 1)^3` (:func:`walk_block`).
 
     Example:
-        >>> cells_buffer_size((10, 10, 10), False), cells_buffer_size((10, 10, 10), True)
-        (27, 48)
+        >>> cells_buffer_size((10, 10, 10), False), cells_buffer_size((10, 10, 10), True), cells_buffer_size((10, 10, 10), False, 3)
+        (27, 48, 343)
     """
-    return max(27, 18 + 3 * int(nc[0])) if shear else 27
+    return max(27, 18 + 3 * int(nc[0])) if shear else max(27, (2 * reach + 1) ** 3)
 
 
 @leaf
@@ -382,6 +405,15 @@ def walk_cells(grid, c, geo, cbuf, axis, step, t, horizon):
 def walk_near(grid, c, geo, cbuf, x, y, z, reach):
     """:func:`walk_cells` over the cells of :func:`near_block`."""
     return _start_walk(grid, cbuf, near_block(grid, c, geo, cbuf, x, y, z, reach))
+
+
+@leaf
+def walk_block(grid, c, geo, cbuf, axis, step, reach):
+    """:func:`walk_cells` over ``reach`` cells to each side of ``c`` (``axis = -1``), or over the
+    layer ``reach`` cells beyond it in direction ``step`` along ``axis`` (the newly adjacent layer
+    after a crossing): a big particle's neighbourhood (unsheared boxes only). ``cbuf`` holds
+    :func:`cells_buffer_size` cells."""
+    return _start_walk(grid, cbuf, _plain_block(geo, cbuf, _block_frame(grid, c, axis, step, reach), NO_GAPS, INF))
 
 
 @leaf

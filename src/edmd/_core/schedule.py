@@ -18,7 +18,7 @@ from numba import types
 from numba.extending import overload
 
 from . import layout as L
-from .cells import cell_insert, cell_of_point, cell_remove, count_work, crossing_time, face_side, prefetch_firsts, walk_cells, walk_next
+from .cells import GI_BIGS, cell_count, cell_insert, cell_of_point, cell_remove, count_work, crossing_time, face_side, prefetch_firsts, reach_of, walk_block, walk_cells, walk_next
 from .images import cross_y_face, fold_into_box, sheared, sheared_type
 from .jit import hot, jit, leaf
 from .layout import NB_LIST
@@ -138,11 +138,32 @@ def scan_cells(i, t, P, count, ev, grid, geo, cbuf, axis, step, pending):
     full predictions call :func:`scan_neighbourhood`.
     """
     xi, yi, zi, vxi, vyi, vzi = flight(P, i, t, geo)
-    nc, s, j = walk_cells(grid, grid.cell[i], geo, cbuf, axis, step, t, sliding_horizon(i, t, P, grid, geo))
-    prefetch_firsts(grid, cbuf, nc, s, P)
-    best, bj = _closest_in_walk(i, xi, yi, zi, vxi, vyi, vzi, P[i, L.R], P, t, grid, geo, cbuf, nc, s, j, ev.pair_t[i] - t, -1, pending_of(i, t, pending), pending)
+    if grid.shape[GI_BIGS] > 0:  # (a system with big particles: called)
+        best, bj = _scan_with_bigs(i, xi, yi, zi, vxi, vyi, vzi, P, t, grid, geo, cbuf, axis, step, ev.pair_t[i] - t, pending_of(i, t, pending), pending)
+    else:
+        nc, s, j = walk_cells(grid, grid.cell[i], geo, cbuf, axis, step, t, sliding_horizon(i, t, P, grid, geo))
+        prefetch_firsts(grid, cbuf, nc, s, P)
+        best, bj = _closest_in_walk(i, xi, yi, zi, vxi, vyi, vzi, P[i, L.R], P, t, grid, geo, cbuf, nc, s, j, ev.pair_t[i] - t, -1, pending_of(i, t, pending), pending)
     if bj >= 0:
         set_pair(ev, count, i, t + best, bj)
+
+
+@jit
+def _scan_with_bigs(i, xi, yi, zi, vxi, vyi, vzi, P, t, grid, geo, cbuf, axis, step, best, pend, pending):
+    """:func:`scan_cells` in a grid with big particles (:mod:`.cells`, physics.md §1.4 "Big particles"):
+    a big particle walks :func:`.cells.reach_of` cells to each side (a crossing: the layer that far
+    ahead), every particle tests every big. Returns the best ``(dt, partner)`` (partner -1: none
+    better than ``best``)."""
+    ri = P[i, L.R]
+    nc, s, j = walk_block(grid, grid.cell[i], geo, cbuf, axis, step, reach_of(grid, ri))
+    best, bj = _closest_in_walk(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, geo, cbuf, nc, s, j, best, -1, pend, pending)
+    first, nbig = cell_count(grid), grid.shape[GI_BIGS]
+    for b in range(nbig):
+        j = grid.head[first + b]
+        if j != i:
+            best, bj = _closer(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, best, bj, pend, pending)
+    count_work(grid, 0, nbig)
+    return best, bj
 
 
 @jit

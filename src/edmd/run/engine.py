@@ -35,7 +35,7 @@ from ..physics import collide
 from ..physics.emdstar import EMDStar, FrictionTableWarning, emd_bundle, friction_table_misses
 from ..physics.tables import PAIR_SPECIES
 from .memory import grid_shape
-from .neighbours import cell_edge, local_densities
+from .neighbours import big_count, cell_edge, local_densities
 from ..state import State, StateError, default_inertia, filled, rescale_temperature
 
 #: ``INFO`` when a run must compile its loop variant first (the CLI shows it)
@@ -184,7 +184,7 @@ class Engine:
         self.collision_log: list[np.ndarray] | None = None
         self.list_capacity = 0
         self._choose_neighbours(state)
-        self.cbuf = np.zeros(cells_buffer_size(self.grid_cells, shear is not None), np.int32)
+        self.cbuf = np.zeros(cells_buffer_size(self.grid_cells, shear is not None, self.big_reach), np.int32)
         if growth is not None:
             speed = math.sqrt(growth.kT / float(state.mass.mean()))
             args = (state.packing_fraction, self.dim, 2.0 * float(state.radius.max()), speed, float(self.fp[L.FP_SKIN]))
@@ -227,10 +227,13 @@ class Engine:
             raise StateError(f"{what} need neighbours='list' (or 'auto'): their pair events are predicted over neighbour lists")
         reach = list_reach(self.fp)
         sigma_max, periodic_len, periodic3 = self._grid_ranges(state)
+        self.r_small, self.big_reach = math.inf, 1  # (no big particles)
         if mode == "cells":
             short = periodic_len[periodic_len < 4.0 * sigma_max]
-            cells = None if short.size else self._cell_grid(state, sigma_max, periodic_len, periodic3)
-            if cells is None:  # fewer than 4 cells on a periodic axis: a pair of cells would be adjacent through two images
+            cells = self._cells(state, sigma_max, periodic_len, periodic3)
+            if cells is not None:
+                cells, self.r_small, self.big_reach = cells
+            else:  # fewer than 4 cells on a periodic axis: a pair of cells would be adjacent through two images
                 if opt.neighbours == "cells":
                     detail = (
                         f"periodic box lengths >= 4 x the largest contact distance ({4 * sigma_max:g}), got {short.min():g}"
@@ -264,6 +267,45 @@ class Engine:
         """The largest interaction range, the periodic box lengths and the periodic flags of 3 axes."""
         sigma_max = 2.0 * float(state.radius.max()) * list_reach(self.fp)
         return sigma_max, self.box[: self.dim][self.periodic], np.r_[self.periodic, [False] * (3 - self.dim)]
+
+    def _cells(self, state: State, sigma_max: float, periodic_len, periodic3):
+        """``(cells, r_small, reach)`` of cells mode (``None``: none fit): the cells per axis, with a
+        few big particles taken out of the cell size where that pays (:meth:`_big_split`; else
+        ``r_small = inf``, ``reach = 1``)."""
+        split = self._big_split(state, periodic_len, periodic3)
+        if split is not None:
+            return split
+        if np.any(periodic_len < 4.0 * sigma_max):
+            return None
+        cells = self._cell_grid(state, sigma_max, periodic_len, periodic3)
+        return None if cells is None else (cells, math.inf, 1)
+
+    def _big_split(self, state: State, periodic_len, periodic3):
+        """``(cells, r_small, reach)`` of cells sized without the big particles (physics.md §1.4,
+        "Big particles"), or ``None``: none pay, or the box is too short for the bigs' blocks (on a
+        periodic axis at least :math:`2K + 2` cells, and a length of at least twice the largest
+        contact plus 4 cells: between two scans of a pair its nearest image cannot change), or the
+        run shears (the sliding faces' blocks are 3 cells wide), has eMD* contacts (whose
+        relocation scans look 1 cell around) or a fixed ``cell_size``."""
+        if self.shear is not None or self.emd_rule is not None or self.options.cell_size is not None:
+            return None
+        m = big_count(state.radius, state.n / state.volume, self.dim)
+        if m == 0:
+            return None
+        r = np.sort(state.radius)[::-1]
+        r_small = float(r[m])
+        if np.any(periodic_len < 8.0 * r_small):
+            return None
+        cells = self._cell_grid(state, 2.0 * r_small, periodic_len, periodic3)
+        if cells is None:
+            return None
+        lengths = self.box[: self.dim] / cells[: self.dim]
+        split = cells[: self.dim] > 1
+        reach = math.ceil((float(r[0]) + r_small) / lengths[split].min() * (1.0 + 1e-12))
+        periodic = split & self.periodic
+        if np.any(cells[: self.dim][periodic] < 2 * reach + 2) or np.any(self.box[: self.dim][periodic] < 4.0 * r[0] + 4.0 * lengths[periodic]):
+            return None
+        return cells, r_small, reach
 
     def _cell_grid(self, state: State, sigma_max: float, periodic_len, periodic3):
         """Cells per axis of cells mode: the edge of ``cell_size`` or of the cost model
@@ -419,9 +461,10 @@ class Engine:
             self._start_segment()
             self._choose_neighbours(state)  # (the radii have grown: cells of the list grid, skin, capacity)
         elif self.mode == "cells" and self.options.cell_size is None and np.any(self.grav != 0.0):
-            cells = self._cell_grid(state, *self._grid_ranges(state))  # (a bed settles or lifts: the cells follow its density)
+            cells = self._cells(state, *self._grid_ranges(state))  # (a bed settles or lifts: the cells follow its density)
             if cells is not None:
-                self.grid_cells = cells
+                self.grid_cells, self.r_small, self.big_reach = cells
+                self.cbuf = np.zeros(cells_buffer_size(self.grid_cells, False, self.big_reach), np.int32)
         n = self.n
         order = self._spatial_order(state)
         pending = self._pending_arrays(state, order)
@@ -602,7 +645,8 @@ class Engine:
         n = self.n
         geo = self.geo
         while True:
-            self.grid = new_grid(n, self.box, self.grid_cells)
+            bigs = np.flatnonzero(self.part.rows[:, L.R] > self.r_small).astype(np.int32)  # (none without a split)
+            self.grid = new_grid(n, self.box, self.grid_cells, bigs, self.big_reach, self.r_small)
             cap = max(self.list_capacity, 1) if self.mode == "list" else 1
             nl = n if self.mode == "list" else 1
             self.lists = Lists(np.zeros((nl, cap), np.int32), np.zeros(nl, np.int32), np.zeros((nl, 3)))
