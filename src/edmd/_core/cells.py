@@ -91,7 +91,7 @@ def cell_count(grid):
 @leaf
 def reach_of(grid, r):
     """Cells a particle of radius ``r`` scans to each side: the bigs' reach, or 1."""
-    return grid.shape[GI_REACH] if r > grid.size[GF_RSMALL] else 1
+    return grid.shape[GI_REACH] if r > grid.size[GF_RSMALL] else np.int64(1)
 
 
 @leaf
@@ -183,7 +183,7 @@ def cell_block(grid, c, geo, out, axis, step, t, horizon):
     n = sheared_block(grid, c, geo, out, axis, step, t, horizon)
     if n >= 0:
         return n
-    return _plain_block(geo, out, _block_frame(grid, c, axis, step, 1), NO_GAPS, INF)
+    return _plain_block(geo, out, _block_frame(grid, c, axis, step, np.int64(1)), NO_GAPS, INF)
 
 
 @leaf
@@ -201,7 +201,7 @@ def near_block(grid, c, geo, out, x, y, z, reach):
     n = sheared_block(grid, c, geo, out, np.int64(-1), np.int64(0), 0.0, NOT_ACROSS)
     if n >= 0:
         return n
-    frame = _block_frame(grid, c, np.int64(-1), np.int64(0), 1)
+    frame = _block_frame(grid, c, np.int64(-1), np.int64(0), np.int64(1))
     cx, cy, cz = frame[3], frame[4], frame[5]
     gaps = (*_face_gaps(grid, geo, 0, cx, x), *_face_gaps(grid, geo, 1, cy, y), *_face_gaps(grid, geo, 2, cz, z))
     return _plain_block(geo, out, frame, gaps, reach * reach * (1.0 + 1e-9))
@@ -304,15 +304,15 @@ NOT_ACROSS = -1.0
 
 @leaf
 def _sheared_block(grid, c, geo, out, axis, step, t, horizon):
-    nx, ny, nz, cx, cy, cz, lox, hix, loy, hiy, loz, hiz = _block_frame(grid, c, axis, step, 1)
+    nx, ny, nz, cx, cy, cz, lox, hix, loy, hiy, loz, hiz = _block_frame(grid, c, axis, step, np.int64(1))
     pz = geo[5] < INF
     n = 0
-    ylo, yhi = _offsets(1, ny, -1, 0, 1)
+    ylo, yhi = _offsets(1, ny, -1, 0, np.int64(1))
     for oy in range(ylo, yhi + 1):
         y2 = _shift(cy, oy, ny, True)
         if y2 != cy + oy or ny < 3:  # the row across the face (a single row is also the row across: whole)
             x0, count = _sliding_window(nx, cx, oy > 0, t, INF if ny < 3 else horizon, geo)
-            zlo, zhi = _offsets(2, nz, -1, 0, 1)
+            zlo, zhi = _offsets(2, nz, -1, 0, np.int64(1))
             for ox in range(count):
                 n = _z_column(out, n, (x0 + ox) % nx, y2, cz, zlo, zhi, ny, nz, pz, INF, 0.0, 0.0)
         elif loy <= oy and oy <= hiy:

@@ -139,7 +139,7 @@ def scan_cells(i, t, P, count, ev, grid, geo, cbuf, axis, step, pending):
     """
     xi, yi, zi, vxi, vyi, vzi = flight(P, i, t, geo)
     if grid.shape[GI_BIGS] > 0:  # (a system with big particles: called)
-        best, bj = _scan_with_bigs(i, xi, yi, zi, vxi, vyi, vzi, P, t, grid, geo, cbuf, axis, step, ev.pair_t[i] - t, pending_of(i, t, pending), pending)
+        best, bj = scan_with_bigs(i, xi, yi, zi, vxi, vyi, vzi, P, t, grid, geo, cbuf, axis, step, ev.pair_t[i] - t, pending_of(i, t, pending), pending)
     else:
         nc, s, j = walk_cells(grid, grid.cell[i], geo, cbuf, axis, step, t, sliding_horizon(i, t, P, grid, geo))
         prefetch_firsts(grid, cbuf, nc, s, P)
@@ -148,21 +148,41 @@ def scan_cells(i, t, P, count, ev, grid, geo, cbuf, axis, step, pending):
         set_pair(ev, count, i, t + best, bj)
 
 
-@jit
-def _scan_with_bigs(i, xi, yi, zi, vxi, vyi, vzi, P, t, grid, geo, cbuf, axis, step, best, pend, pending):
+def scan_with_bigs(i, xi, yi, zi, vxi, vyi, vzi, P, t, grid, geo, cbuf, axis, step, best, pend, pending):
     """:func:`scan_cells` in a grid with big particles (:mod:`.cells`, physics.md §1.4 "Big particles"):
     a big particle walks :func:`.cells.reach_of` cells to each side (a crossing: the layer that far
     ahead), every particle tests every big. Returns the best ``(dt, partner)`` (partner -1: none
-    better than ``best``)."""
+    better than ``best``). eMD* runs (``pending`` not ``None``) never have bigs (the engine takes
+    none out: their relocation scans look one cell around) and compile nothing of it."""
+    return _scan_with_bigs(i, xi, yi, zi, vxi, vyi, vzi, P, t, grid, geo, cbuf, axis, step, best, pend, pending)
+
+
+@overload(scan_with_bigs, inline="always")
+def _scan_with_bigs_hook(i, xi, yi, zi, vxi, vyi, vzi, P, t, grid, geo, cbuf, axis, step, best, pend, pending):
+    if not isinstance(pending, types.NoneType):
+        return lambda i, xi, yi, zi, vxi, vyi, vzi, P, t, grid, geo, cbuf, axis, step, best, pend, pending: (best, np.int64(-1))
+    return lambda i, xi, yi, zi, vxi, vyi, vzi, P, t, grid, geo, cbuf, axis, step, best, pend, pending: _scan_with_bigs(
+        i, xi, yi, zi, vxi, vyi, vzi, P, t, grid, geo, cbuf, axis, step, best, pend, pending
+    )
+
+
+@jit
+def _scan_with_bigs(i, xi, yi, zi, vxi, vyi, vzi, P, t, grid, geo, cbuf, axis, step, best, pend, pending):
     ri = P[i, L.R]
     nc, s, j = walk_block(grid, grid.cell[i], geo, cbuf, axis, step, reach_of(grid, ri))
-    best, bj = _closest_in_walk(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, geo, cbuf, nc, s, j, best, -1, pend, pending)
     first, nbig = cell_count(grid), grid.shape[GI_BIGS]
-    for b in range(nbig):
-        j = grid.head[first + b]
-        if j != i:
-            best, bj = _closer(i, xi, yi, zi, vxi, vyi, vzi, ri, P, j, t, geo, best, bj, pend, pending)
-    count_work(grid, 0, nbig)
+    bj, b, tested = -1, 0, 0
+    while j >= 0 or b < nbig:  # the walk, then the bigs (one inlined copy of the pair test)
+        if j >= 0:
+            k = j
+            nc, s, j = walk_next(grid, cbuf, nc, s, j)
+        else:
+            k = grid.head[first + b]
+            b += 1
+        if k != i:
+            best, bj = _closer(i, xi, yi, zi, vxi, vyi, vzi, ri, P, k, t, geo, best, bj, pend, pending)
+            tested += 1
+    count_work(grid, nc, tested)
     return best, bj
 
 
