@@ -15,6 +15,25 @@ def _coords(c, nc):
     return c // (nc[1] * nc[2]), (c // nc[2]) % nc[1], c % nc[2]
 
 
+def _block(cc, nc, periodic, reach):
+    """Brute force: the cells within ``reach`` cells of coordinates ``cc`` on every axis."""
+    want = set()
+    for off in itertools.product(range(-reach, reach + 1), repeat=3):
+        q = []
+        for k in range(3):
+            x = cc[k] + off[k]
+            if nc[k] == 1:
+                x = 0
+            elif periodic[k]:
+                x %= nc[k]
+            elif not 0 <= x < nc[k]:
+                break
+            q.append(x)
+        else:
+            want.add((q[0] * nc[1] + q[1]) * nc[2] + q[2])
+    return want
+
+
 @pytest.mark.parametrize("nc, periodic", [((5, 4, 3), (1, 1, 1)), ((4, 4, 1), (1, 1, 0)), ((5, 2, 3), (0, 0, 1)), ((3, 3, 3), (1, 1, 1))])
 def test_cell_block_is_the_full_neighbourhood(nc, periodic):
     box = np.array(nc, float)
@@ -23,22 +42,7 @@ def test_cell_block_is_the_full_neighbourhood(nc, periodic):
     out = np.empty(27, np.int32)
     for c in range(int(np.prod(nc))):
         got = sorted(out[: cell_block(grid, c, make_geo(box, half), out, -1, 0, 0.0, math.inf)].tolist())
-        cc = _coords(c, nc)
-        want = set()
-        for off in itertools.product((-1, 0, 1), repeat=3):
-            q = []
-            for k in range(3):
-                x = cc[k] + off[k]
-                if nc[k] == 1:
-                    x = 0
-                elif periodic[k]:
-                    x %= nc[k]
-                elif not 0 <= x < nc[k]:
-                    break
-                q.append(x)
-            else:
-                want.add((q[0] * nc[1] + q[1]) * nc[2] + q[2])
-        assert got == sorted(want)
+        assert got == sorted(_block(_coords(c, nc), nc, periodic, 1))
 
 
 @pytest.mark.parametrize("nc, periodic", [((5, 4, 3), (1, 1, 1)), ((4, 4, 1), (1, 1, 0)), ((5, 2, 3), (0, 0, 1))])
@@ -85,25 +89,6 @@ def test_layer_after_crossing_is_the_new_neighbourhood_part():
     layer = set(out[: cell_block(grid, new, make_geo(box, half), out, 0, 1, 0.0, math.inf)].tolist())
     assert layer == full_new - full_old
     assert len(layer) == 9
-
-
-def _block(cc, nc, periodic, reach):
-    """Brute force: the cells within ``reach`` cells of coordinates ``cc`` on every axis."""
-    want = set()
-    for off in itertools.product(range(-reach, reach + 1), repeat=3):
-        q = []
-        for k in range(3):
-            x = cc[k] + off[k]
-            if nc[k] == 1:
-                x = 0
-            elif periodic[k]:
-                x %= nc[k]
-            elif not 0 <= x < nc[k]:
-                break
-            q.append(x)
-        else:
-            want.add((q[0] * nc[1] + q[1]) * nc[2] + q[2])
-    return want
 
 
 @pytest.mark.parametrize("reach", [1, 2, 3])
