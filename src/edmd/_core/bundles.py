@@ -53,11 +53,11 @@ class Pairs(NamedTuple):
 class Grid(NamedTuple):
     """Cells ("sectors", physics.md §1.4) as linked lists."""
 
-    head: np.ndarray  #: (cells,) int32 first particle of each cell (-1: empty)
+    head: np.ndarray  #: (cells + bigs,) int32 first particle of each cell (-1: empty), then the big particles (``cells.GI_BIGS``)
     link: np.ndarray  #: (N,) int32 next particle in the same cell (-1: last)
     cell: np.ndarray  #: (N,) int32 cell of each particle
-    shape: np.ndarray  #: (5,) int64 cells per axis, then the work counters (cells.GI_WORK: cells scanned, pairs tested)
-    size: np.ndarray  #: (8,) float64 cell lengths, their inverses, the largest and smallest radius (``cells.GF_RMAX``, ``GF_RMIN``)
+    shape: np.ndarray  #: (7,) int64 cells per axis, the work counters (cells.GI_WORK: cells scanned, pairs tested), the bigs' number and reach
+    size: np.ndarray  #: (9,) float64 cell lengths, their inverses, the largest and smallest radius (``cells.GF_RMAX``, ``GF_RMIN``), the largest that is not big
 
 
 class Lists(NamedTuple):

@@ -233,6 +233,9 @@ class Engine:
             cells = self._cells(state, sigma_max, periodic_len, periodic3)
             if cells is not None:
                 cells, self.r_small, self.big_reach = cells
+                if self.r_small < math.inf:
+                    bigs = int(np.count_nonzero(state.radius > self.r_small))
+                    logging.getLogger("edmd.engine").info("cells mode: %d big particle(s) taken out of the cell size (radius > %g; they scan %d cells around)", bigs, self.r_small, self.big_reach)
             else:  # fewer than 4 cells on a periodic axis: a pair of cells would be adjacent through two images
                 if opt.neighbours == "cells":
                     detail = (
