@@ -304,6 +304,8 @@ class Engine:
             return None
         lengths = self.box[: self.dim] / cells[: self.dim]
         split = cells[: self.dim] > 1
+        if not split.any():
+            return None
         reach = math.ceil((float(r[0]) + r_small) / lengths[split].min() * (1.0 + 1e-12))
         periodic = split & self.periodic
         if np.any(cells[: self.dim][periodic] < 2 * reach + 2) or np.any(self.box[: self.dim][periodic] < 4.0 * r[0] + 4.0 * lengths[periodic]):
