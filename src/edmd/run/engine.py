@@ -229,7 +229,6 @@ class Engine:
         sigma_max, periodic_len, periodic3 = self._grid_ranges(state)
         self.r_small, self.big_reach = math.inf, 1  # (no big particles)
         if mode == "cells":
-            short = periodic_len[periodic_len < 4.0 * sigma_max]
             cells = self._cells(state, sigma_max, periodic_len, periodic3)
             if cells is not None:
                 cells, self.r_small, self.big_reach = cells
@@ -238,6 +237,7 @@ class Engine:
                     logging.getLogger("edmd.engine").info("cells mode: %d big particle(s) taken out of the cell size (radius > %g; they scan %d cells around)", bigs, self.r_small, self.big_reach)
             else:  # fewer than 4 cells on a periodic axis: a pair of cells would be adjacent through two images
                 if opt.neighbours == "cells":
+                    short = periodic_len[periodic_len < 4.0 * sigma_max]
                     detail = (
                         f"periodic box lengths >= 4 x the largest contact distance ({4 * sigma_max:g}), got {short.min():g}"
                         if short.size
@@ -295,8 +295,8 @@ class Engine:
         m = big_count(state.radius, state.n / state.volume, self.dim)
         if m == 0:
             return None
-        r = np.sort(state.radius)[::-1]
-        r_small = float(r[m])
+        r_small = float(np.partition(state.radius, state.n - m - 1)[state.n - m - 1])  # (the largest that is not big)
+        r_max = float(state.radius.max())
         if np.any(periodic_len < 8.0 * r_small):
             return None
         cells = self._cell_grid(state, 2.0 * r_small, periodic_len, periodic3)
@@ -306,9 +306,9 @@ class Engine:
         split = cells[: self.dim] > 1
         if not split.any():
             return None
-        reach = math.ceil((float(r[0]) + r_small) / lengths[split].min() * (1.0 + 1e-12))
+        reach = math.ceil((r_max + r_small) / lengths[split].min() * (1.0 + 1e-12))
         periodic = split & self.periodic
-        if np.any(cells[: self.dim][periodic] < 2 * reach + 2) or np.any(self.box[: self.dim][periodic] < 4.0 * r[0] + 4.0 * lengths[periodic]):
+        if np.any(cells[: self.dim][periodic] < 2 * reach + 2) or np.any(self.box[: self.dim][periodic] < 4.0 * r_max + 4.0 * lengths[periodic]):
             return None
         return cells, r_small, reach
 

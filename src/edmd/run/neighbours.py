@@ -57,11 +57,16 @@ def mean_free_path(number_density: float, sigma: float, dim: int) -> float:
     return 1.0 / (2.0 * math.sqrt(2.0) * number_density * sigma * chi)
 
 
+def crossings(edge: float, free_path: float, dim: int) -> float:
+    """Cell-face crossings per collision: :math:`2\\lambda k_d / \\ell`, the two free paths that end in it (module doc)."""
+    k = 1.5 if dim == 3 else 4.0 / math.pi
+    return 2.0 * free_path * k / edge
+
+
 def cell_cost(edge: float, number_density: float, free_path: float, dim: int) -> float:
     """:math:`C(\\ell) / c_p`: the work of one collision in pair predictions (module doc)."""
-    k = 1.5 if dim == 3 else 4.0 / math.pi
     per_cell = number_density * edge**dim
-    return 2.0 * free_path * k / edge * (CROSSING_COST + 3 ** (dim - 1) * per_cell) + 2.0 * 3**dim * per_cell
+    return crossings(edge, free_path, dim) * (CROSSING_COST + 3 ** (dim - 1) * per_cell) + 2.0 * 3**dim * per_cell
 
 
 def cell_edge(number_density, sigma_mean: float, sigma_max: float, dim: int, weights=None) -> float:
@@ -122,22 +127,25 @@ def big_count(radius, number_density: float, dim: int) -> int:
         >>> big_count(np.full(10000, 0.5), 0.0955, 3), big_count(np.linspace(0.1, 1.0, 10000), 0.0955, 3)
         (0, 0)
     """
-    r = np.sort(np.asarray(radius, float))[::-1]
-    top = min(MAX_BIGS, r.size - 1)
-    if top < 1 or r[0] <= r[top]:
+    radius = np.asarray(radius, float)
+    n = radius.size
+    top = min(MAX_BIGS, n - 1)
+    if top < 1 or radius.max() == radius.min():  # (one size: no copy of the radii)
         return 0
-    sigma_mean = 2.0 * float(r.mean())
+    r = np.sort(np.partition(radius, n - top - 1)[n - top - 1 :])[::-1]  # the top + 1 largest, largest first
+    if r[0] <= r[top]:
+        return 0
+    sigma_mean = 2.0 * float(radius.mean())
     path = mean_free_path(number_density, sigma_mean, dim)
-    k = 1.5 if dim == 3 else 4.0 / math.pi
     best, best_cost = 0, math.inf
     for m in range(top + 1):
         if m > 0 and r[m - 1] == r[m]:
             continue
         edge = cell_edge(number_density, sigma_mean, 2.0 * r[m], dim)
-        cost = cell_cost(edge, number_density, path, dim) + m * (2.0 * path * k / edge + 2.0)
+        cost = cell_cost(edge, number_density, path, dim) + m * (crossings(edge, path, dim) + 2.0)
         for b in range(m):  # a big's scans: its block of cells (their heads and particles)
             block = (2 * math.ceil((r[b] + r[m]) / edge) + 1) ** dim
-            cost += 2.0 / r.size * ((r[b] + 0.5 * sigma_mean) / sigma_mean) ** (dim - 1) * block * (number_density * edge**dim + 0.3)
+            cost += 2.0 / n * ((r[b] + 0.5 * sigma_mean) / sigma_mean) ** (dim - 1) * block * (number_density * edge**dim + 0.3)
         if cost < best_cost:
             best, best_cost = m, cost
     return best
