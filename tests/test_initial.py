@@ -49,6 +49,26 @@ def test_random_packing_polydisperse(dim):
     assert 0.3 <= s.radius.min() and s.radius.max() <= 0.7
 
 
+def _brute_overlap(s):
+    """The deepest relative overlap of any pair (nearest image), by numpy over all pairs."""
+    d = s.position[:, None, :] - s.position[None, :, :]
+    d -= np.where(s.periodic, s.box * np.round(d / s.box), 0.0)
+    depth = 1.0 - np.sqrt((d * d).sum(-1)) / (s.radius[:, None] + s.radius[None, :])
+    np.fill_diagonal(depth, -np.inf)
+    return depth.max()
+
+
+@pytest.mark.parametrize("eta", [0.1, 0.4])
+def test_random_packing_with_an_intruder(dim, eta):
+    """An intruder of size ratio 10 among 2000 (insertion at eta = 0.1; relaxation at 0.4, where
+    the intruder's many overlaps at the start need the damped steps): placed without overlaps."""
+    n = 2000
+    s = random_packing(n, eta, dim=dim, radius={"kind": "discrete", "values": [0.5, 5.0], "fractions": [n - 1, 1]}, seed=4)
+    assert s.radius.max() == 5.0 and np.count_nonzero(s.radius == 5.0) == 1
+    assert s.packing_fraction == pytest.approx(eta, rel=1e-12)
+    assert _brute_overlap(s) <= 0.0
+
+
 def test_random_packing_too_dense_fails_clearly():
     with pytest.raises(StateError, match="random insertion failed"):
         random_packing(500, 0.6, dim=3, max_attempts=50, method="insert")

@@ -34,6 +34,22 @@ def test_overlap_across_the_periodic_boundary(dim):
         State(position=pos, velocity=pos * 0, radius=0.5, mass=1.0, box=[10.0] * dim)
 
 
+@pytest.mark.parametrize("partner", ["small", "big"])
+def test_overlap_with_a_big_particle_is_found(dim, partner):
+    """Two intruders of size ratio 10 among 3000 (taken out of the overlap search's cells): a
+    small one, or the other big, put deep inside one of them is named as the deepest overlap."""
+    n = 3000
+    s = edmd.random_packing(n, 0.05, dim=dim, radius={"kind": "discrete", "values": [0.5, 5.0], "fractions": [n - 2, 2]}, seed=2)
+    b, other = np.flatnonzero(s.radius == 5.0)
+    j = other if partner == "big" else (b + 7) % n
+    pos = s.position.copy()
+    pos[j] = pos[b]
+    pos[j, 0] += 0.2 * (s.radius[b] + s.radius[j])
+    pos[j, 0] -= s.box[0] * np.round(pos[j, 0] / s.box[0])
+    with pytest.raises(StateError, match=f"particles {min(b, j)} and {max(b, j)} overlap"):
+        State(position=pos, velocity=pos * 0, radius=s.radius, mass=1.0, box=s.box)
+
+
 @pytest.mark.parametrize(
     "field, value, match",
     [

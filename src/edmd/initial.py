@@ -10,10 +10,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ._core.cells import new_grid
 from ._core.geometry import random_insert, relax_overlaps
 from ._core.layout import make_geo
-from .run.memory import grid_shape
+from .run.neighbours import overlap_grid
 from .state import State, StateError
 
 LATTICES = {2: ("hex", "square"), 3: ("fcc", "sc")}
@@ -258,8 +257,8 @@ def random_packing(
     half = np.full(3, np.inf)
     half[:dim] = np.where(periodic, 0.5 * box, np.inf)
     geo = make_geo(box3, half)
-    nc = grid_shape(box3, np.r_[periodic, np.zeros(3 - dim, bool)], 2.0 * r.max(), n)
-    grid = new_grid(n, box3, nc)
+    periodic3 = np.r_[periodic, np.zeros(3 - dim, bool)]
+    grid = overlap_grid(r, box3, periodic3, dim)
     pos3 = np.zeros((n, 3))
     placed, attempts, batch = 0, 0, 16
     if method == "auto" and packing_fraction > (0.2 if dim == 3 else 0.4):
@@ -277,8 +276,7 @@ def random_packing(
             )
         pos3[placed:, :dim] = (rng.random((n - placed, dim)) - 0.5) * (box - 2.0 * r.max() * ~periodic)
         inflate = 1.0 + 2e-3
-        nc = grid_shape(box3, np.r_[periodic, np.zeros(3 - dim, bool)], 2.0 * r.max() * inflate, n)
-        sweeps = relax_overlaps(pos3, r, geo, new_grid(n, box3, nc), inflate, 0.3, 20000, dim)
+        sweeps = relax_overlaps(pos3, r, geo, overlap_grid(r, box3, periodic3, dim, inflate), inflate, 0.3, 20000, dim)
         if sweeps > 20000:
             raise StateError(
                 f"could not remove the overlaps of a random packing at packing fraction {packing_fraction} "

@@ -7,10 +7,9 @@ import math
 
 import numpy as np
 
-from ._core.cells import new_grid
 from ._core.geometry import worst_overlap
 from ._core.layout import make_geo
-from .run.memory import grid_shape
+from .run.neighbours import overlap_grid
 
 #: relative overlap tolerated as round-off (contacts from a running simulation sit at |r| = sigma)
 OVERLAP_TOLERANCE = 1e-9
@@ -325,10 +324,8 @@ class State:
     def overlapping_pair(self, rel_tol: float = OVERLAP_TOLERANCE):
         """The most overlapping pair ``(i, j, distance)`` beyond ``rel_tol``, or ``None``."""
         box, half = self.geometry()
-        sigma_max = 2.0 * float(self.radius.max())
-        nc = grid_shape(box, np.r_[self.periodic, [False] * (3 - self.dim)], sigma_max, self.n)
-        grid = new_grid(self.n, box, nc)
         shear = None if self.shear_offset == 0.0 else (0.0, self.shear_offset)
+        grid = overlap_grid(self.radius, box, np.r_[self.periodic, [False] * (3 - self.dim)], self.dim, shear=shear is not None)
         i, j, d = worst_overlap(self.points, self.radius, make_geo(box, half, shear=shear), grid, rel_tol)
         return None if i < 0 else (int(i), int(j), float(d))
 

@@ -25,6 +25,9 @@ import math
 
 import numpy as np
 
+from .._core.cells import new_grid
+from .memory import grid_shape
+
 #: cost of a crossing event in pair predictions (c_x / c_p): 19 from the edge sweeps of 2026-12-02 (AMD
 #: EPYC), 7-8 from those of 2026-12-04 (Intel Xeon, the prefetching loop); 10 measured 1.06-1.09x
 #: faster than 19 on the latter in 3D, equal in 2D (benchmarks/README.md, "Cell size")
@@ -99,7 +102,7 @@ def cell_edge(number_density, sigma_mean: float, sigma_max: float, dim: int, wei
         return sigma_max
     paths = np.array([mean_free_path(float(v), sigma_mean, dim) for v in densities])
     edges = sigma_max * np.exp(np.linspace(0.0, math.log(64.0), 601))  # 1..64 contact distances
-    costs = [sum(w * cell_cost(float(e), float(v), p, dim) / p for v, w, p in zip(densities, weights, paths)) for e in edges]
+    costs = sum(w * cell_cost(edges, float(v), p, dim) / p for v, w, p in zip(densities, weights, paths))
     return float(edges[int(np.argmin(costs))])
 
 
@@ -176,3 +179,36 @@ def local_densities(position: np.ndarray, box: np.ndarray, sigma: float) -> tupl
     volume = float(np.prod(box / shape))
     values, bins = np.unique(occupied, return_counts=True)
     return values / volume, values * bins
+
+
+def overlap_grid(radius: np.ndarray, box3: np.ndarray, periodic3, dim: int, scale: float = 1.0, shear: bool = False):
+    """The cell grid of the set-up's overlap searches (:mod:`edmd._core.geometry`: placing,
+    relaxing and checking particles) for contacts up to ``scale`` times :math:`R_i + R_j`.
+
+    Its cells are as wide as the largest such contact, or, where :func:`big_count` takes big
+    particles out (as cells mode does), as that of the others; each big then walks the block
+    of :math:`(2K+1)^d` cells with :math:`K\\ell \\ge s(R_{\\max} + r_{\\rm small})`, kept only when
+    it holds no cell twice (on a periodic axis :math:`2K+1` cells at most), and no big is
+    taken out of a sheared box. A ratio-10 intruder among :math:`10^4` spheres then costs the
+    search little instead of making it all-pairs.
+
+    Example:
+        >>> r = np.r_[5.0, np.full(9999, 0.5)]   # one intruder, eta = 0.1
+        >>> box = np.full(3, (r**3).sum() * 4.18879 / 0.1) ** (1 / 3)
+        >>> g = overlap_grid(r, box, np.ones(3, bool), 3)
+        >>> g.shape[:3].tolist(), int(g.shape[5]), int(g.shape[6])   # cells, bigs, reach
+        ([38, 38, 38], 1, 6)
+    """
+    n = radius.size
+    r_max = float(radius.max())
+    periodic3 = np.asarray(periodic3, bool)
+    m = 0 if shear else big_count(radius, n / float(np.prod(box3[:dim])), dim)
+    if m:
+        r_small = float(np.partition(radius, n - m - 1)[n - m - 1])
+        nc = grid_shape(box3, periodic3, 2.0 * scale * r_small, n)
+        split = nc > 1
+        if split.any():
+            reach = math.ceil(scale * (r_max + r_small) / float(np.min(box3[split] / nc[split])) * (1.0 + 1e-12))
+            if not np.any(periodic3 & split & (nc < 2 * reach + 1)):
+                return new_grid(n, box3, nc, np.flatnonzero(radius > r_small).astype(np.int32), reach, r_small)
+    return new_grid(n, box3, grid_shape(box3, periodic3, 2.0 * scale * r_max, n))
