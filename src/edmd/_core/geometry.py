@@ -6,7 +6,7 @@ keeps the cells as small as the other particles need: a big walks its block of
 """
 
 import numpy as np
-from .jit import jit_alloc
+from .jit import jit_alloc, leaf
 
 from .cells import GF_RSMALL, GI_BIGS, GI_REACH, bin_all, cell_count, cell_insert, cell_of_point, reach_of, walk_around, walk_block, walk_next
 from .predict import INF, shear_image, wrap3
@@ -18,7 +18,7 @@ def _walk_buffer(grid):
     return np.empty(max(18 + 3 * max(grid.shape[0], 3), (2 * grid.shape[GI_REACH] + 1) ** 3), np.int32)
 
 
-@jit_alloc
+@leaf
 def _walk_of(grid, c, geo, cbuf, r):
     """The walk over the neighbourhood of cell ``c`` of a particle of radius ``r``: a big's block, or the 3^d cells."""
     if grid.shape[GI_BIGS] == 0:
@@ -44,7 +44,7 @@ def close_pairs(pos, radius, geo, grid, scale):
     ii, jj, dd = [], [], []
     for i in range(n):
         big = radius[i] > r_small
-        nc, s, j = _walk_of(grid, grid.cell[i], geo, cbuf, radius[i])
+        nc, s, j = _walk_of(grid, np.int64(grid.cell[i]), geo, cbuf, radius[i])
         b = 0 if big else nbig
         while j >= 0 or b < nbig:
             if j >= 0:
@@ -104,7 +104,7 @@ def random_insert(radius, geo, grid, pos, uniforms, start, dim):
             c = cell_of_point(pos[p, 0], pos[p, 1], pos[p, 2], geo, grid)
             grid.cell[p] = c
             ok = True
-            nc, s, j = _walk_of(grid, c, geo, cbuf, radius[p])
+            nc, s, j = walk_block(grid, c, geo, cbuf, np.int64(-1), np.int64(0), reach_of(grid, radius[p]))  # (never sheared)
             b = 0
             while j >= 0 or b < nbig:
                 if j >= 0:
