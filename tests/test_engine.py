@@ -89,12 +89,37 @@ def test_big_particles_match_brute_force(dim, slow_case):
     if slow_case and dim == 2:
         pytest.skip("the 2D case is the fast one")
     n, bigs, ratio, eta, t_end = {2: (150, 2, 10, 0.1, 2.0), 3: (400, 2, 10, 0.03, 2.0) if slow_case else (200, 3, 5, 0.05, 2.4)}[dim]
+    _assert_big_split_is_brute_force(dim, n, bigs, ratio, eta, t_end)
+
+
+def _assert_big_split_is_brute_force(dim, n, bigs, ratio, eta, t_end):
     s = _intruders(dim, n, bigs, ratio, eta)
     sim = edmd.Simulation(s, engine=EngineOptions(neighbours="cells", debug=True))
     _assert_big_split(sim, bigs)
     _assert_brute_force(sim, s, t_end, n // 2)
     sim.run(max_events=50_000)
     assert abs(sim.state.kinetic_energy() / s.kinetic_energy() - 1) < 1e-10
+    return sim
+
+
+def test_one_big_particle_in_a_short_box_matches_brute_force(dim):
+    """One intruder of size ratio 5 in a box shorter than twice the contact of two bigs plus 4
+    cells, but not than twice its contact with a small one (plus 4 cells): the largest contact
+    that exists sets the box a split needs (physics.md §1.4, "Big particles")."""
+    n, eta = {2: (60, 0.35), 3: (250, 0.15)}[dim]
+    sim = _assert_big_split_is_brute_force(dim, n, 1, 5, eta, 1.0)  # (dense: round-off grows past 1e-9 by t = 2)
+    assert sim.state.box[0] < 2.0 * 2.0 + 4.0 * sim.engine.grid.size[0]
+
+
+def test_auto_keeps_cells_for_big_particles_at_any_density(dim):
+    """Dense systems, where 'auto' takes lists: with an intruder of size ratio 10 it keeps cells
+    with the intruder taken out (lists would size their centre cells and every list by it), with
+    one of ratio 2 (below AUTO_BIG_RATIO) it takes lists."""
+    eta = 0.45 if dim == 3 else 0.65
+    for ratio, mode in ((10, "cells"), (2, "list")):
+        sim = edmd.Simulation(_intruders(dim, 3000, 1, ratio, eta))
+        assert sim.engine.mode == mode
+    _assert_big_split(edmd.Simulation(_intruders(dim, 3000, 1, 10, eta)), 1)
 
 
 def test_big_particles_agree_with_lists(dim):

@@ -25,10 +25,23 @@ def test_memory_sizes(text, size):
 def test_grid_is_bounded_by_the_particle_number(dim):
     n = 200
     state = edmd.random_packing(n, 1e-6, dim=dim, seed=1)  # one-diameter cells: 1e8 (3D), 3e7 (2D)
-    nc = grid_shape(np.r_[state.box, [1.0] * (3 - dim)], [True] * dim + [False] * (3 - dim), 1.0, n)
+    nc = grid_shape(np.r_[state.box, [1.0] * (3 - dim)], [True] * dim + [False] * (3 - dim), 1.0, n, dim)
     assert np.prod(nc) <= max_cells(n) and np.all(nc[:dim] >= 4)
     sim = edmd.Simulation(edmd.maxwell_boltzmann(state, 1.0, seed=2), engine={"neighbours": "cells"})
     assert np.prod(sim.engine.grid_cells) <= max_cells(n)
+
+
+@pytest.mark.parametrize("mode", ["cells", "list"])
+def test_disks_in_si_units_get_one_cell_across_the_plane(mode):
+    """2D boxes carry a placeholder third length of 1: disks of radius 1 mm once had 63 (cells)
+    or 153 (lists) cells across it, every walk visited three layers of them, and the cell cap took
+    cells from the plane (0.64 of the speed). The plane's cells must equal those of the same
+    system in units of the diameter."""
+    grids = []
+    for radius in (0.5, 1e-3):
+        s = edmd.maxwell_boltzmann(edmd.random_packing(2000, 0.05 if mode == "cells" else 0.7, dim=2, seed=1, radius=radius), radius**2, seed=2)
+        grids.append(edmd.Simulation(s, engine={"neighbours": mode}).engine.grid_cells.tolist())
+    assert grids[0] == grids[1] and grids[1][2] == 1
 
 
 def test_coarse_cells_give_the_same_collisions_as_lists(dim):

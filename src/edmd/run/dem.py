@@ -131,7 +131,7 @@ class DEMEngine:
         if limit <= 0.0:
             raise StateError(f"box length {state.box.min():g} must exceed twice the largest contact distance ({2 * sigma_max:g})")
         self.skin = min(float(skin), 0.99 * limit)
-        self.grid_cells = grid_shape(self.box, np.r_[self.periodic, [False] * (3 - self.dim)], sigma_max + self.skin, self.n)
+        self.grid_cells = grid_shape(self.box, np.r_[self.periodic, [False] * (3 - self.dim)], sigma_max + self.skin, self.n, self.dim)
         self.cnt = np.zeros(L.N_COUNTERS, np.int64)
         self.acc = np.zeros(L.N_ACC)
         self.sums = np.zeros(_dem.N_SUMS)

@@ -49,7 +49,9 @@ class EngineOptions:
     Attributes:
         neighbours: ``"list"`` (neighbour lists with a shell; best for dense systems),
             ``"cells"`` (cell grid with crossing events; best for dilute systems) or ``"auto"``
-            (lists at packing fraction >= ``auto_threshold``, in a box without shear).
+            (lists at packing fraction >= ``auto_threshold``, in a box without shear, unless a
+            few particles at least :data:`AUTO_BIG_RATIO` times larger than the rest are taken
+            out of cells mode's cell size: then cells).
         skin: list shell thickness in units of the mean diameter (lists only): pairs whose
             list centres are closer than ``sigma_ij + skin`` are neighbours.
         resync_every: events between two maintenance resyncs, per particle (one costs as much
@@ -93,6 +95,12 @@ class EngineOptions:
 #: packing fraction from which ``neighbours="auto"`` takes lists, by dimension: where lists overtake
 #: cells (N = 1e4, one core; mono- and polydisperse, benchmarks/README.md "Neighbour structure")
 AUTO_THRESHOLD = {2: 0.6, 3: 0.35}
+#: size ratio of the big particles to the others from which ``"auto"`` keeps cells mode at any
+#: density when it takes them out of the cell size: neighbour lists size their centre cells and
+#: every particle's list capacity by the largest contact. One intruder among 1e4 (one core,
+#: benchmarks/README.md "Big particles"), lists / cells in M coll/s: ratio 2, 3D eta = 0.45,
+#: 1.42 / 0.77; ratio 3, 0.70 / 0.75 (2D eta = 0.65: 1.34 / 1.49); ratio 10, 0.036 / 0.65
+AUTO_BIG_RATIO = 3.0
 
 
 def _species(state: State) -> list[tuple[float, float]] | None:
@@ -219,14 +227,18 @@ class Engine:
     def _choose_neighbours(self, state: State):
         opt = self.options
         mode = opt.neighbours
+        reach = list_reach(self.fp)
+        sigma_max, periodic_len, periodic3 = self._grid_ranges(state)
         if mode == "auto":
             threshold = AUTO_THRESHOLD[self.dim] if opt.auto_threshold is None else opt.auto_threshold
             mode = "list" if (state.packing_fraction >= threshold or self._pair_state) and self.shear is None else "cells"
+            if mode == "list" and not self._pair_state:
+                split = self._big_split(state, periodic_len, periodic3)
+                if split is not None and float(state.radius.max()) >= AUTO_BIG_RATIO * split[1]:
+                    mode = "cells"  # (big particles: lists' centre cells and every list would be sized by them)
         if mode == "cells" and self._pair_state:
             what = "square wells" if self.well is not None else "growing particles"
             raise StateError(f"{what} need neighbours='list' (or 'auto'): their pair events are predicted over neighbour lists")
-        reach = list_reach(self.fp)
-        sigma_max, periodic_len, periodic3 = self._grid_ranges(state)
         self.r_small, self.big_reach = math.inf, 1  # (no big particles)
         if mode == "cells":
             cells = self._cells(state, sigma_max, periodic_len, periodic3)
@@ -260,7 +272,7 @@ class Engine:
         if mode == "cells":
             self.grid_cells = cells
         else:
-            self.grid_cells = grid_shape(self.box, periodic3, sigma_max + skin, self.n)
+            self.grid_cells = grid_shape(self.box, periodic3, sigma_max + skin, self.n, self.dim)
             n_density = state.n / state.volume
             reach = sigma_max + skin
             ball = (4.0 / 3.0 * math.pi * reach**3) if self.dim == 3 else (math.pi * reach**2)
@@ -295,8 +307,9 @@ class Engine:
         m = big_count(state.radius, state.n / state.volume, self.dim)
         if m == 0:
             return None
-        r_small = float(np.partition(state.radius, state.n - m - 1)[state.n - m - 1])  # (the largest that is not big)
-        r_max = float(state.radius.max())
+        top = np.partition(state.radius, (state.n - m - 1, state.n - 2))
+        r_small = float(top[state.n - m - 1])  # (the largest that is not big)
+        r_max, sigma_max = float(top[-1]), float(top[-1] + top[-2])  # (the largest contact: of the two largest)
         if np.any(periodic_len < 8.0 * r_small):
             return None
         cells = self._cell_grid(state, 2.0 * r_small, periodic_len, periodic3)
@@ -308,7 +321,7 @@ class Engine:
             return None
         reach = math.ceil((r_max + r_small) / lengths[split].min() * (1.0 + 1e-12))
         periodic = split & self.periodic
-        if np.any(cells[: self.dim][periodic] < 2 * reach + 2) or np.any(self.box[: self.dim][periodic] < 4.0 * r_max + 4.0 * lengths[periodic]):
+        if np.any(cells[: self.dim][periodic] < 2 * reach + 2) or np.any(self.box[: self.dim][periodic] < 2.0 * sigma_max + 4.0 * lengths[periodic]):
             return None
         return cells, r_small, reach
 
@@ -327,7 +340,7 @@ class Engine:
             edge = cell_edge(state.n / state.volume, sigma_mean, sigma_max, self.dim)
         if periodic_len.size:  # >= 4 cells on a periodic axis: a pair of cells is then adjacent through one image only
             edge = max(sigma_max, min(edge, float(periodic_len.min()) / 4.0))
-        cells = grid_shape(self.box, periodic3, edge, self.n)
+        cells = grid_shape(self.box, periodic3, edge, self.n, self.dim)
         return None if np.any(cells[: self.dim][self.periodic] < 4) else cells
 
     @property

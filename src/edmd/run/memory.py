@@ -37,14 +37,19 @@ class MemoryLimitError(ValueError):
     """A run would need more memory than the machine has (or than ``max_memory`` allows)."""
 
 
-def grid_shape(box, periodic, min_cell: float, n: int) -> np.ndarray:
-    """Cells per axis: edges of at least ``min_cell``, at most :func:`max_cells` of them.
+def grid_shape(box, periodic, min_cell: float, n: int, dim: int) -> np.ndarray:
+    """Cells per axis: edges of at least ``min_cell``, at most :func:`max_cells` of them; one cell
+    on the axes beyond ``dim`` (a 2D box's third length is a placeholder: cut into cells, it
+    multiplied every walk's cells and, in SI units, took the cell cap from the plane).
 
     Example:
         >>> box = np.array([10000.0, 10000.0, 10000.0])
-        >>> grid_shape(box, [True] * 3, 1.0, 10000).tolist()   # not 1e12 cells for 1e4 particles
+        >>> grid_shape(box, [True] * 3, 1.0, 10000, 3).tolist()   # not 1e12 cells for 1e4 particles
         [54, 54, 54]
+        >>> grid_shape(np.array([0.2, 0.2, 1.0]), [True, True, False], 0.002, 10000, 2).tolist()   # disks in SI units
+        [100, 100, 1]
     """
+    box = np.where(np.arange(3) < dim, np.asarray(box, float), np.inf)
     nc = _grid_shape(box, periodic, min_cell)
     cap = max_cells(n)
     while int(np.prod(nc)) > cap:

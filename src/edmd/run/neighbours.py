@@ -205,10 +205,10 @@ def overlap_grid(radius: np.ndarray, box3: np.ndarray, periodic3, dim: int, scal
     m = 0 if shear else big_count(radius, n / float(np.prod(box3[:dim])), dim)
     if m:
         r_small = float(np.partition(radius, n - m - 1)[n - m - 1])
-        nc = grid_shape(box3, periodic3, 2.0 * scale * r_small, n)
+        nc = grid_shape(box3, periodic3, 2.0 * scale * r_small, n, dim)
         split = nc > 1
         if split.any():
             reach = math.ceil(scale * (r_max + r_small) / float(np.min(box3[split] / nc[split])) * (1.0 + 1e-12))
             if not np.any(periodic3 & split & (nc < 2 * reach + 1)):
                 return new_grid(n, box3, nc, np.flatnonzero(radius > r_small).astype(np.int32), reach, r_small)
-    return new_grid(n, box3, grid_shape(box3, periodic3, 2.0 * scale * r_max, n))
+    return new_grid(n, box3, grid_shape(box3, periodic3, 2.0 * scale * r_max, n, dim))
