@@ -122,18 +122,24 @@ def test_auto_keeps_cells_for_big_particles_at_any_density(dim):
     _assert_big_split(edmd.Simulation(_intruders(dim, 3000, 1, 10, eta)), 1)
 
 
-def test_big_particles_agree_with_lists(dim):
+@pytest.mark.parametrize("soft", [False, True], ids=["hard", "emdstar"])
+def test_big_particles_agree_with_lists(dim, soft):
     """A larger gas with five intruders of size ratio 10: cells with big particles and neighbour
-    lists (the other structure, whose lists hold every partner of a big) meet the same collisions."""
+    lists (the other structure, whose lists hold every partner of a big) meet the same collisions;
+    with eMD* soft contacts too (their A events' relocation scans walk a big's block and test
+    every big, emdstar.relocation_scan), and the same exceptions."""
     s = _intruders(dim, 3000, 5, 10, 0.05 if dim == 3 else 0.1, seed=5)
-    logs = []
+    logs, counters = [], []
     for mode in MODES:
-        sim = edmd.Simulation(s, engine=EngineOptions(neighbours=mode))
+        collision = EMDStar(LinearDashpot(k=1e4, gamma=20.0)) if soft else None
+        sim = edmd.Simulation(s, collision=collision, engine=EngineOptions(neighbours=mode))
         if mode == "cells":
             _assert_big_split(sim, 5)
         sim.engine.enable_log()
         sim.run(until_time=0.5)
         logs.append(sim.engine.take_log())
+        counters.append(sim.emd_counters() if soft else None)
+    assert counters[0] == counters[1] and (not soft or counters[0]["emd_contacts"] > 1000)
     big = np.flatnonzero(s.radius == 1.0)
     assert len(logs[0]) == len(logs[1]) > 1000
     assert np.isin(logs[0][:, 1:3], big).any(axis=1).sum() > 20
@@ -141,15 +147,12 @@ def test_big_particles_agree_with_lists(dim):
     assert np.abs(logs[0][:, 0] - logs[1][:, 0]).max() < 1e-9
 
 
-def test_big_particles_are_not_split_where_they_cannot_be(dim):
-    """eMD* (whose relocation scans look one cell around) and a fixed cell size keep the cells as
-    wide as the largest contact."""
+def test_big_particles_are_not_split_with_a_fixed_cell_size(dim):
+    """A fixed cell size keeps the cells as wide as the largest contact."""
     s = _intruders(dim, 3000, 5, 10, 0.05 if dim == 3 else 0.1, seed=5)
-    emd = edmd.Simulation(s, collision=EMDStar(LinearDashpot(k=1e4, gamma=20.0)), engine=EngineOptions(neighbours="cells"))
-    fixed = edmd.Simulation(s, engine=EngineOptions(neighbours="cells", cell_size=1.0))
-    for sim in (emd, fixed):
-        assert sim.engine.grid.shape[GI_BIGS] == 0
-        assert np.all(sim.engine.grid.size[:dim] >= 2.0 - 1e-12)
+    sim = edmd.Simulation(s, engine=EngineOptions(neighbours="cells", cell_size=1.0))
+    assert sim.engine.grid.shape[GI_BIGS] == 0
+    assert np.all(sim.engine.grid.size[:dim] >= 2.0 - 1e-12)
 
 
 def test_neighbour_modes_agree_on_a_collision_sequence(dim):

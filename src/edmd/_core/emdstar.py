@@ -31,7 +31,7 @@ import math
 import numpy as np
 
 from . import layout as L
-from .cells import cell_insert, cell_of_point, cell_remove, count_work, walk_around, walk_next
+from .cells import GI_BIGS, cell_count, cell_insert, cell_of_point, cell_remove, count_work, reach_of, walk_around, walk_block, walk_next
 from .jit import hot, jit, leaf
 from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTACT_SOFT, NB_LIST
 from .friction_lookup import G_NC, tabled_update
@@ -100,7 +100,9 @@ def relocation_scan(p, x, y, z, v, i, j, t, P, grid, geo, walls, cbuf, predict, 
 
     Candidates are the particles binned in the 3^d cells around the point: cells are at least
     as wide as the largest contact distance plus the list skin (list mode bins list centres,
-    which lie within half a skin of the particles), so no overlapping particle is missed.
+    which lie within half a skin of the particles), so no overlapping particle is missed; with
+    big particles (cells mode, physics.md §1.4) a big's block of :func:`.cells.reach_of` cells
+    and every big, as :func:`.schedule.scan_with_bigs` scans.
     ``i`` and ``j`` (the pair itself) are skipped; third particles are taken at time ``t``. A
     third particle that ``p`` already overlaps (its former partner right after exception b,
     still at the residual overlap of their contact) blocks only if the move deepens the overlap.
@@ -122,9 +124,19 @@ def relocation_scan(p, x, y, z, v, i, j, t, P, grid, geo, walls, cbuf, predict, 
     x -= box_shift(x, geo[0], geo[3]) * geo[0]  # into the box as wrap_into_box puts the stored position
     y -= box_shift(y, geo[1], geo[4]) * geo[1]
     z -= box_shift(z, geo[2], geo[5]) * geo[2]
-    nc, s, k = walk_around(grid, cell_of_point(x, y, z, geo, grid), geo, cbuf)
-    tested = 0
-    while k >= 0:
+    c, first, nbig = cell_of_point(x, y, z, geo, grid), cell_count(grid), grid.shape[GI_BIGS]
+    if nbig == 0:
+        nc, s, q = walk_around(grid, c, geo, cbuf)
+    else:  # (big particles: a big's block, then every big)
+        nc, s, q = walk_block(grid, c, geo, cbuf, np.int64(-1), np.int64(0), reach_of(grid, r))
+    tested, b = 0, 0
+    while q >= 0 or b < nbig:
+        if q >= 0:
+            k = q
+            nc, s, q = walk_next(grid, cbuf, nc, s, q)
+        else:
+            k = grid.head[first + b]
+            b += 1
         if k != i and k != j:
             kx, ky, kz, kvx, kvy, kvz = flight(P, k, t, geo)
             dx, dy, dz = wrap3(x - kx, y - ky, z - kz, geo)
@@ -140,7 +152,6 @@ def relocation_scan(p, x, y, z, v, i, j, t, P, grid, geo, walls, cbuf, predict, 
                 if dt < best:
                     best, bk = dt, k
             tested += 1
-        nc, s, k = walk_next(grid, cbuf, nc, s, k)
     count_work(grid, nc, tested)
     return False, best, bk
 

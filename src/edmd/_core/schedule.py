@@ -148,26 +148,12 @@ def scan_cells(i, t, P, count, ev, grid, geo, cbuf, axis, step, pending):
         set_pair(ev, count, i, t + best, bj)
 
 
+@jit
 def scan_with_bigs(i, xi, yi, zi, vxi, vyi, vzi, P, t, grid, geo, cbuf, axis, step, best, pend, pending):
     """:func:`scan_cells` in a grid with big particles (:mod:`.cells`, physics.md §1.4 "Big particles"):
     a big particle walks :func:`.cells.reach_of` cells to each side (a crossing: the layer that far
     ahead), every particle tests every big. Returns the best ``(dt, partner)`` (partner -1: none
-    better than ``best``). eMD* runs (``pending`` not ``None``) never have bigs (the engine takes
-    none out: their relocation scans look one cell around) and compile nothing of it."""
-    return _scan_with_bigs(i, xi, yi, zi, vxi, vyi, vzi, P, t, grid, geo, cbuf, axis, step, best, pend, pending)
-
-
-@overload(scan_with_bigs, inline="always")
-def _scan_with_bigs_hook(i, xi, yi, zi, vxi, vyi, vzi, P, t, grid, geo, cbuf, axis, step, best, pend, pending):
-    if not isinstance(pending, types.NoneType):
-        return lambda i, xi, yi, zi, vxi, vyi, vzi, P, t, grid, geo, cbuf, axis, step, best, pend, pending: (best, np.int64(-1))
-    return lambda i, xi, yi, zi, vxi, vyi, vzi, P, t, grid, geo, cbuf, axis, step, best, pend, pending: _scan_with_bigs(
-        i, xi, yi, zi, vxi, vyi, vzi, P, t, grid, geo, cbuf, axis, step, best, pend, pending
-    )
-
-
-@jit
-def _scan_with_bigs(i, xi, yi, zi, vxi, vyi, vzi, P, t, grid, geo, cbuf, axis, step, best, pend, pending):
+    better than ``best``)."""
     ri = P[i, L.R]
     nc, s, j = walk_block(grid, grid.cell[i], geo, cbuf, axis, step, reach_of(grid, ri))
     first, nbig = cell_count(grid), grid.shape[GI_BIGS]

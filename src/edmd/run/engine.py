@@ -300,9 +300,8 @@ class Engine:
         "Big particles"), or ``None``: none pay, or the box is too short for the bigs' blocks (on a
         periodic axis at least :math:`2K + 2` cells, and a length of at least twice the largest
         contact plus 4 cells: between two scans of a pair its nearest image cannot change), or the
-        run shears (the sliding faces' blocks are 3 cells wide), has eMD* contacts (whose
-        relocation scans look 1 cell around) or a fixed ``cell_size``."""
-        if self.shear is not None or self.emd_rule is not None or self.options.cell_size is not None:
+        run shears (the sliding faces' blocks are 3 cells wide) or has a fixed ``cell_size``."""
+        if self.shear is not None or self.options.cell_size is not None:
             return None
         m = big_count(state.radius, state.n / state.volume, self.dim)
         if m == 0:
