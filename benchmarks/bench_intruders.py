@@ -12,6 +12,7 @@ Usage::
 
     taskset -c 1 python benchmarks/bench_intruders.py --tree OLD --tree .   # the table of benchmarks/README.md
     python benchmarks/bench_intruders.py --case 3 0.05 10 1 cells
+    python benchmarks/bench_intruders.py --emdstar --case 3 0.05 10 1 cells   # eMD* soft contacts
 """
 
 from __future__ import annotations
@@ -41,16 +42,24 @@ CASES = [
 ]
 
 
-def measure(dim: int, eta: float, ratio: float, bigs: int, neighbours: str, n: int, equilibrate: float, chunk: float, repeats: int) -> dict:
-    """One case in this process (run through :func:`run_case`)."""
+def measure(dim: int, eta: float, ratio: float, bigs: int, neighbours: str, n: int, equilibrate: float, chunk: float, repeats: int, emdstar: bool = False) -> dict:
+    """One case in this process (run through :func:`run_case`); ``emdstar``: the viscoelastic gas
+    of bench_emdstar.py (SI units, eMD* soft contacts, the small grains at ~1 m/s) instead."""
     import edmd
     from edmd._core import cells
 
     bigs_index = getattr(cells, "GI_BIGS", None)  # (None: a tree from before big particles)
 
-    radius = 0.5 if bigs == 0 else {"kind": "discrete", "values": [0.5, 0.5 * ratio], "fractions": [1 - bigs / n, bigs / n]}
-    s = edmd.maxwell_boltzmann(edmd.random_packing(n, eta, dim=dim, seed=1, radius=radius, density=1.0), 1.0, seed=2)
-    sim = edmd.Simulation(s, engine={"neighbours": neighbours})
+    small, density, collision = 0.5, 1.0, None
+    if emdstar:
+        from bench_emdstar import DENSITY, RADIUS, contact_law
+        from edmd.physics.emdstar import EMDStar
+
+        small, density, collision = RADIUS, DENSITY, EMDStar(contact_law())
+    radius = small if bigs == 0 else {"kind": "discrete", "values": [small, small * ratio], "fractions": [1 - bigs / n, bigs / n]}
+    s = edmd.random_packing(n, eta, dim=dim, seed=1, radius=radius, density=density)
+    s = edmd.maxwell_boltzmann(s, float(s.mass.min()) / 3.0 if emdstar else 1.0, seed=2)
+    sim = edmd.Simulation(s, collision=collision, engine={"neighbours": neighbours})
     sim.run(max_events=int(equilibrate * n))
     rates, per = [], []
     for _ in range(repeats):
@@ -66,6 +75,7 @@ def measure(dim: int, eta: float, ratio: float, bigs: int, neighbours: str, n: i
         "ratio": ratio,
         "bigs": bigs,
         "neighbours": sim.engine.mode,
+        "emdstar": emdstar,
         "n": s.n,
         "mcoll_per_s_best": max(rates),
         "mcoll_per_s_median": statistics.median(rates),
@@ -78,7 +88,7 @@ def measure(dim: int, eta: float, ratio: float, bigs: int, neighbours: str, n: i
 def run_case(tree: str, case: tuple, args) -> dict:
     """:func:`measure` in a fresh process on the sources of ``tree``."""
     env = {**os.environ, "PYTHONPATH": os.path.join(os.path.abspath(tree), "src")}
-    code = f"import json, bench_intruders as b; print(json.dumps(b.measure(*{case!r}, {args.n}, {args.equilibrate}, {args.chunk}, {args.repeats})))"
+    code = f"import json, bench_intruders as b; print(json.dumps(b.measure(*{case!r}, {args.n}, {args.equilibrate}, {args.chunk}, {args.repeats}, {args.emdstar})))"
     out = subprocess.run([sys.executable, "-c", code], cwd=Path(__file__).parent, env=env, capture_output=True, text=True, check=True)
     return {"tree": tree, **json.loads(out.stdout.strip().splitlines()[-1])}
 
@@ -91,6 +101,7 @@ def main(argv=None):
     ap.add_argument("--equilibrate", type=float, default=5.0, help="events per particle before the timed chunks")
     ap.add_argument("--chunk", type=float, default=5.0, help="events per particle per timed chunk")
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--emdstar", action="store_true", help="the viscoelastic eMD* gas of bench_emdstar.py instead of elastic hard spheres")
     ap.add_argument("--out", default=str(Path(__file__).with_name("results") / "intruders.json"))
     args = ap.parse_args(argv)
     trees = args.tree or [str(Path(__file__).resolve().parent.parent)]
