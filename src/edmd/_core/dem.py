@@ -34,7 +34,7 @@ powers (the tangential dissipation is that work minus the springs' energy).
 
 import math
 
-from .cells import bin_all, walk_around, walk_next
+from .cells import GF_RSMALL, GI_BIGS, bin_all, cell_count, walk_around, walk_next
 from .contact import MODEL_HERTZ, contact_force, normal_damping, tangential_force
 from .jit import jit, leaf
 from .layout import C_COLL, C_EVENTS, C_REBUILD, ST_EVENTS, ST_LIST_FULL
@@ -51,17 +51,31 @@ ST_STEP_TOO_LARGE = 7
 def build_list(pos, radius, geo, grid, skin, nbl, nbl_n, tch, cbuf):
     """Bin the particles and build the half neighbour list with overlap flags.
 
+    In a grid with big particles (:mod:`.cells`, physics.md §1.4 "Big particles"; cells sized
+    for the others) a small particle's row also holds the bigs it meets, found by testing every
+    big, and a big's row the later bigs: no row holds a big's hundreds of partners.
     Returns ``False`` if a row of ``nbl`` overflows (the caller grows it and retries).
     """
     n = pos.shape[0]
     bin_all(pos, geo, grid)
     cap = nbl.shape[1]
+    first, nbig, r_small = cell_count(grid), grid.shape[GI_BIGS], grid.size[GF_RSMALL]
     for i in range(n):
         xi, yi, zi, ri = pos[i, 0], pos[i, 1], pos[i, 2], radius[i]
+        big = ri > r_small
         m = 0
-        nc, s, j = walk_around(grid, grid.cell[i], geo, cbuf)
-        while j >= 0:
-            if j > i:
+        nc, s, q = walk_around(grid, grid.cell[i], geo, cbuf)
+        b = 0
+        while q >= 0 or b < nbig:
+            if q >= 0:
+                j = q
+                nc, s, q = walk_next(grid, cbuf, nc, s, q)
+                take = j > i and not big and radius[j] <= r_small
+            else:
+                j = grid.head[first + b]
+                b += 1
+                take = j != i and (j > i or not big)
+            if take:
                 dx, dy, dz = wrap3(xi - pos[j, 0], yi - pos[j, 1], zi - pos[j, 2], geo)
                 r2 = dx * dx + dy * dy + dz * dz
                 sig = ri + radius[j]
@@ -72,7 +86,6 @@ def build_list(pos, radius, geo, grid, skin, nbl, nbl_n, tch, cbuf):
                     nbl[i, m] = j
                     tch[i, m] = 1 if r2 < sig * sig else 0
                     m += 1
-            nc, s, j = walk_next(grid, cbuf, nc, s, j)
         nbl_n[i] = m
     return True
 

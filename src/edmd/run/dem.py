@@ -43,8 +43,8 @@ import numpy as np
 from .._core import dem as _dem
 from .._core import layout as L
 from .._core.bundles import Spins
-from .._core.cells import new_grid
-from .memory import grid_shape
+from .._core.cells import GF_RSMALL
+from .neighbours import overlap_grid
 from ..physics.contact import ContactModel, Hertz
 from ..physics.friction import Friction
 from .engine import EngineError
@@ -131,13 +131,14 @@ class DEMEngine:
         if limit <= 0.0:
             raise StateError(f"box length {state.box.min():g} must exceed twice the largest contact distance ({2 * sigma_max:g})")
         self.skin = min(float(skin), 0.99 * limit)
-        self.grid_cells = grid_shape(self.box, np.r_[self.periodic, [False] * (3 - self.dim)], sigma_max + self.skin, self.n, self.dim)
+        grid = self._grid(state.radius)
+        self.grid_cells = grid.shape[:3].copy()
         self.cnt = np.zeros(L.N_COUNTERS, np.int64)
         self.acc = np.zeros(L.N_ACC)
         self.sums = np.zeros(_dem.N_SUMS)
         self.cbuf = np.zeros(27, np.int32)
         n_density = state.n / state.volume
-        reach = sigma_max + self.skin
+        reach = 2.0 * min(float(grid.size[GF_RSMALL]), 0.5 * sigma_max) + self.skin  # (a row holds no big's partners)
         ball = (4.0 / 3.0 * math.pi * reach**3) if self.dim == 3 else (math.pi * reach**2)
         self.capacity = int(1.2 * n_density * ball) + 8
         self.load(state)
@@ -163,7 +164,7 @@ class DEMEngine:
         self.acc3 = np.zeros((n, 3))
         self.vp = np.zeros((n, 3))
         self.dsp = np.zeros((n, 3))
-        self.grid = new_grid(n, self.box, self.grid_cells)
+        self.grid = self._grid(self.radius)
         rows = n if self.friction is not None else 1
         omega = np.zeros((rows, 3))
         if self.friction is not None:
@@ -175,6 +176,11 @@ class DEMEngine:
             springs = (np.zeros((rows, 1, 3)), np.zeros((rows, 1), np.int32), np.zeros(rows, np.int32))
         self.rot = Spins(omega, omega.copy(), np.zeros((rows, 3)), self.inertia, np.zeros((rows, 1, 3)), *springs)
         self._setup()
+
+    def _grid(self, radius):
+        """The cell grid of the list builds: cells of the largest contact plus the skin, or of the
+        others' with a few big particles taken out (:func:`.neighbours.overlap_grid`)."""
+        return overlap_grid(radius, self.box, np.r_[self.periodic, [False] * (3 - self.dim)], self.dim, pad=self.skin)
 
     def _setup(self):
         """Allocate the list at the current capacity and build it; springs come from ``rot.nbl_old``."""

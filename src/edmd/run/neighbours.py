@@ -181,9 +181,10 @@ def local_densities(position: np.ndarray, box: np.ndarray, sigma: float) -> tupl
     return values / volume, values * bins
 
 
-def overlap_grid(radius: np.ndarray, box3: np.ndarray, periodic3, dim: int, scale: float = 1.0, shear: bool = False):
+def overlap_grid(radius: np.ndarray, box3: np.ndarray, periodic3, dim: int, scale: float = 1.0, shear: bool = False, pad: float = 0.0):
     """The cell grid of the set-up's overlap searches (:mod:`edmd._core.geometry`: placing,
-    relaxing and checking particles) for contacts up to ``scale`` times :math:`R_i + R_j`.
+    relaxing and checking particles) for contacts up to ``scale`` times :math:`R_i + R_j`, plus
+    ``pad`` (the force-based MD's list skin, :func:`edmd._core.dem.build_list`).
 
     Its cells are as wide as the largest such contact, or, where :func:`big_count` takes big
     particles out (as cells mode does), as that of the others; each big then walks the block
@@ -205,10 +206,10 @@ def overlap_grid(radius: np.ndarray, box3: np.ndarray, periodic3, dim: int, scal
     m = 0 if shear else big_count(radius, n / float(np.prod(box3[:dim])), dim)
     if m:
         r_small = float(np.partition(radius, n - m - 1)[n - m - 1])
-        nc = grid_shape(box3, periodic3, 2.0 * scale * r_small, n, dim)
+        nc = grid_shape(box3, periodic3, 2.0 * scale * r_small + pad, n, dim)
         split = nc > 1
         if split.any():
-            reach = math.ceil(scale * (r_max + r_small) / float(np.min(box3[split] / nc[split])) * (1.0 + 1e-12))
+            reach = math.ceil((scale * (r_max + r_small) + pad) / float(np.min(box3[split] / nc[split])) * (1.0 + 1e-12))
             if not np.any(periodic3 & split & (nc < 2 * reach + 1)):
                 return new_grid(n, box3, nc, np.flatnonzero(radius > r_small).astype(np.int32), reach, r_small)
-    return new_grid(n, box3, grid_shape(box3, periodic3, 2.0 * scale * r_max, n, dim))
+    return new_grid(n, box3, grid_shape(box3, periodic3, 2.0 * scale * r_max + pad, n, dim))
