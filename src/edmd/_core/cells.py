@@ -454,6 +454,26 @@ def walk_next(grid, cbuf, nc, s, j):
 
 
 @leaf
+def next_or_big(grid, cbuf, nc, s, j, b):
+    """The next particle of a walk (:func:`walk_cells`; cursor ``nc, s, j``) and, once it ends, of
+    every big particle (``b``: the bigs visited so far). Returns ``(k, nc, s, j, b)``: the particle
+    (``-1``: none left) and the moved cursor; ``k`` came from the walk when ``j >= 0`` before the call::
+
+        b = 0
+        while True:
+            k, nc, s, j, b = next_or_big(grid, cbuf, nc, s, j, b)
+            if k < 0:
+                break
+    """
+    if j >= 0:
+        nc2, s2, j2 = walk_next(grid, cbuf, nc, s, j)
+        return np.int64(j), nc2, s2, j2, b
+    if b < grid.shape[GI_BIGS]:
+        return np.int64(grid.head[cell_count(grid) + b]), nc, s, j, b + 1
+    return np.int64(-1), nc, s, j, b
+
+
+@leaf
 def crossing_time(x, v, g, c_axis, nc, length, cell_len, periodic):
     """Time and face (0 lower, 1 upper) of the next crossing out of cell ``c_axis`` on one axis.
 

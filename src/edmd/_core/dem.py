@@ -34,7 +34,7 @@ powers (the tangential dissipation is that work minus the springs' energy).
 
 import math
 
-from .cells import GF_RSMALL, GI_BIGS, bin_all, cell_count, walk_around, walk_next
+from .cells import GF_RSMALL, bin_all, next_or_big, walk_around
 from .contact import MODEL_HERTZ, contact_force, normal_damping, tangential_force
 from .jit import jit, leaf
 from .layout import C_COLL, C_EVENTS, C_REBUILD, ST_EVENTS, ST_LIST_FULL
@@ -59,23 +59,19 @@ def build_list(pos, radius, geo, grid, skin, nbl, nbl_n, tch, cbuf):
     n = pos.shape[0]
     bin_all(pos, geo, grid)
     cap = nbl.shape[1]
-    first, nbig, r_small = cell_count(grid), grid.shape[GI_BIGS], grid.size[GF_RSMALL]
+    r_small = grid.size[GF_RSMALL]
     for i in range(n):
         xi, yi, zi, ri = pos[i, 0], pos[i, 1], pos[i, 2], radius[i]
         big = ri > r_small
         m = 0
         nc, s, q = walk_around(grid, grid.cell[i], geo, cbuf)
         b = 0
-        while q >= 0 or b < nbig:
-            if q >= 0:
-                j = q
-                nc, s, q = walk_next(grid, cbuf, nc, s, q)
-                take = j > i and not big and radius[j] <= r_small
-            else:
-                j = grid.head[first + b]
-                b += 1
-                take = j != i and (j > i or not big)
-            if take:
+        while True:
+            in_walk = q >= 0
+            j, nc, s, q, b = next_or_big(grid, cbuf, nc, s, q, b)
+            if j < 0:
+                break
+            if j > i and not big and radius[j] <= r_small if in_walk else j != i and (j > i or not big):
                 dx, dy, dz = wrap3(xi - pos[j, 0], yi - pos[j, 1], zi - pos[j, 2], geo)
                 r2 = dx * dx + dy * dy + dz * dz
                 sig = ri + radius[j]

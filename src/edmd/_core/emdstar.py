@@ -31,7 +31,7 @@ import math
 import numpy as np
 
 from . import layout as L
-from .cells import GI_BIGS, cell_count, cell_insert, cell_of_point, cell_remove, count_work, reach_of, walk_around, walk_block, walk_next
+from .cells import GI_BIGS, cell_insert, cell_of_point, cell_remove, count_work, next_or_big, reach_of, walk_around, walk_block
 from .jit import hot, jit, leaf
 from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTACT_SOFT, NB_LIST
 from .friction_lookup import G_NC, tabled_update
@@ -124,19 +124,16 @@ def relocation_scan(p, x, y, z, v, i, j, t, P, grid, geo, walls, cbuf, predict, 
     x -= box_shift(x, geo[0], geo[3]) * geo[0]  # into the box as wrap_into_box puts the stored position
     y -= box_shift(y, geo[1], geo[4]) * geo[1]
     z -= box_shift(z, geo[2], geo[5]) * geo[2]
-    c, first, nbig = cell_of_point(x, y, z, geo, grid), cell_count(grid), grid.shape[GI_BIGS]
-    if nbig == 0:
+    c = cell_of_point(x, y, z, geo, grid)
+    if grid.shape[GI_BIGS] == 0:
         nc, s, q = walk_around(grid, c, geo, cbuf)
     else:  # (big particles: a big's block, then every big)
         nc, s, q = walk_block(grid, c, geo, cbuf, np.int64(-1), np.int64(0), reach_of(grid, r))
     tested, b = 0, 0
-    while q >= 0 or b < nbig:
-        if q >= 0:
-            k = q
-            nc, s, q = walk_next(grid, cbuf, nc, s, q)
-        else:
-            k = grid.head[first + b]
-            b += 1
+    while True:
+        k, nc, s, q, b = next_or_big(grid, cbuf, nc, s, q, b)
+        if k < 0:
+            break
         if k != i and k != j:
             kx, ky, kz, kvx, kvy, kvz = flight(P, k, t, geo)
             dx, dy, dz = wrap3(x - kx, y - ky, z - kz, geo)

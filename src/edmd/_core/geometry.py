@@ -8,7 +8,7 @@ keeps the cells as small as the other particles need: a big walks its block of
 import numpy as np
 from .jit import jit_alloc, leaf
 
-from .cells import GF_RSMALL, GI_BIGS, GI_REACH, bin_all, cell_count, cell_insert, cell_of_point, reach_of, walk_around, walk_block, walk_next
+from .cells import GF_RSMALL, GI_BIGS, GI_REACH, bin_all, cell_insert, cell_of_point, next_or_big, reach_of, walk_around, walk_block
 from .predict import INF, shear_image, wrap3
 
 
@@ -40,22 +40,18 @@ def close_pairs(pos, radius, geo, grid, scale):
     n = pos.shape[0]
     bin_all(pos, geo, grid)
     cbuf = _walk_buffer(grid)
-    first, nbig, r_small = cell_count(grid), grid.shape[GI_BIGS], grid.size[GF_RSMALL]
+    nbig, r_small = grid.shape[GI_BIGS], grid.size[GF_RSMALL]
     ii, jj, dd = [], [], []
     for i in range(n):
         big = radius[i] > r_small
         nc, s, j = _walk_of(grid, np.int64(grid.cell[i]), geo, cbuf, radius[i])
         b = 0 if big else nbig
-        while j >= 0 or b < nbig:
-            if j >= 0:
-                k = j
-                nc, s, j = walk_next(grid, cbuf, nc, s, j)
-                take = radius[k] <= r_small and (k > i or big)
-            else:
-                k = grid.head[first + b]
-                b += 1
-                take = k > i
-            if take:
+        while True:
+            in_walk = j >= 0
+            k, nc, s, j, b = next_or_big(grid, cbuf, nc, s, j, b)
+            if k < 0:
+                break
+            if radius[k] <= r_small and (k > i or big) if in_walk else k > i:
                 a, c = min(i, k), max(i, k)
                 dx, dy, dz, _uc = shear_image(pos[a, 0] - pos[c, 0], pos[a, 1] - pos[c, 1], pos[a, 2] - pos[c, 2], 0.0, geo)
                 sig = scale * (radius[a] + radius[c])
@@ -93,7 +89,6 @@ def random_insert(radius, geo, grid, pos, uniforms, start, dim):
     """
     n = start + uniforms.shape[0]
     cbuf = _walk_buffer(grid)
-    first, nbig = cell_count(grid), grid.shape[GI_BIGS]
     for p in range(start, n):
         u = uniforms[p - start]
         ok = False
@@ -106,15 +101,13 @@ def random_insert(radius, geo, grid, pos, uniforms, start, dim):
             ok = True
             nc, s, j = walk_block(grid, c, geo, cbuf, np.int64(-1), np.int64(0), reach_of(grid, radius[p]))  # (never sheared)
             b = 0
-            while j >= 0 or b < nbig:
-                if j >= 0:
-                    k = j
-                    nc, s, j = walk_next(grid, cbuf, nc, s, j)
-                else:
-                    k = grid.head[first + b]
-                    b += 1
-                    if k >= p:  # (not placed yet)
-                        continue
+            while True:
+                in_walk = j >= 0
+                k, nc, s, j, b = next_or_big(grid, cbuf, nc, s, j, b)
+                if k < 0:
+                    break
+                if not in_walk and k >= p:  # (a big not placed yet)
+                    continue
                 dx, dy, dz = wrap3(pos[p, 0] - pos[k, 0], pos[p, 1] - pos[k, 1], pos[p, 2] - pos[k, 2], geo)
                 sig = radius[p] + radius[k]
                 if dx * dx + dy * dy + dz * dz < sig * sig:

@@ -18,7 +18,7 @@ from numba import types
 from numba.extending import overload
 
 from . import layout as L
-from .cells import GI_BIGS, cell_count, cell_insert, cell_of_point, cell_remove, count_work, crossing_time, face_side, prefetch_firsts, reach_of, walk_block, walk_cells, walk_next
+from .cells import GI_BIGS, cell_insert, cell_of_point, cell_remove, count_work, crossing_time, face_side, next_or_big, prefetch_firsts, reach_of, walk_block, walk_cells, walk_next
 from .images import cross_y_face, fold_into_box, sheared, sheared_type
 from .jit import hot, jit, leaf
 from .layout import NB_LIST
@@ -156,15 +156,11 @@ def scan_with_bigs(i, xi, yi, zi, vxi, vyi, vzi, P, t, grid, geo, cbuf, axis, st
     better than ``best``)."""
     ri = P[i, L.R]
     nc, s, j = walk_block(grid, grid.cell[i], geo, cbuf, axis, step, reach_of(grid, ri))
-    first, nbig = cell_count(grid), grid.shape[GI_BIGS]
     bj, b, tested = -1, 0, 0
-    while j >= 0 or b < nbig:  # the walk, then the bigs (one inlined copy of the pair test)
-        if j >= 0:
-            k = j
-            nc, s, j = walk_next(grid, cbuf, nc, s, j)
-        else:
-            k = grid.head[first + b]
-            b += 1
+    while True:  # the walk, then the bigs (one inlined copy of the pair test)
+        k, nc, s, j, b = next_or_big(grid, cbuf, nc, s, j, b)
+        if k < 0:
+            break
         if k != i:
             best, bj = _closer(i, xi, yi, zi, vxi, vyi, vzi, ri, P, k, t, geo, best, bj, pend, pending)
             tested += 1
