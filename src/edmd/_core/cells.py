@@ -417,6 +417,16 @@ def walk_block(grid, c, geo, cbuf, axis, step, reach):
 
 
 @leaf
+def walk_reach(grid, c, geo, cbuf, r):
+    """:func:`walk_around` ``c``, or in a grid with big particles the :func:`reach_of` cells around
+    it that a particle of radius ``r`` scans (:func:`walk_block`; follow it with every big,
+    :func:`next_or_big`)."""
+    if grid.shape[GI_BIGS] == 0:
+        return walk_around(grid, c, geo, cbuf)
+    return walk_block(grid, c, geo, cbuf, np.int64(-1), np.int64(0), reach_of(grid, r))
+
+
+@leaf
 def _start_walk(grid, cbuf, nc):
     head = grid.head
     for s in range(nc):  # the cells' heads loading at once (large N: none is in a cache)

@@ -31,7 +31,7 @@ import math
 import numpy as np
 
 from . import layout as L
-from .cells import GI_BIGS, cell_insert, cell_of_point, cell_remove, count_work, next_or_big, reach_of, walk_around, walk_block
+from .cells import cell_insert, cell_of_point, cell_remove, count_work, next_or_big, walk_reach
 from .jit import hot, jit, leaf
 from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTACT_SOFT, NB_LIST
 from .friction_lookup import G_NC, tabled_update
@@ -124,11 +124,7 @@ def relocation_scan(p, x, y, z, v, i, j, t, P, grid, geo, walls, cbuf, predict, 
     x -= box_shift(x, geo[0], geo[3]) * geo[0]  # into the box as wrap_into_box puts the stored position
     y -= box_shift(y, geo[1], geo[4]) * geo[1]
     z -= box_shift(z, geo[2], geo[5]) * geo[2]
-    c = cell_of_point(x, y, z, geo, grid)
-    if grid.shape[GI_BIGS] == 0:
-        nc, s, q = walk_around(grid, c, geo, cbuf)
-    else:  # (big particles: a big's block, then every big)
-        nc, s, q = walk_block(grid, c, geo, cbuf, np.int64(-1), np.int64(0), reach_of(grid, r))
+    nc, s, q = walk_reach(grid, cell_of_point(x, y, z, geo, grid), geo, cbuf, r)
     tested, b = 0, 0
     while True:
         k, nc, s, q, b = next_or_big(grid, cbuf, nc, s, q, b)

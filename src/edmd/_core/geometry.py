@@ -6,9 +6,9 @@ keeps the cells as small as the other particles need: a big walks its block of
 """
 
 import numpy as np
-from .jit import jit_alloc, leaf
+from .jit import jit_alloc
 
-from .cells import GF_RSMALL, GI_BIGS, GI_REACH, bin_all, cell_insert, cell_of_point, next_or_big, reach_of, walk_around, walk_block
+from .cells import GF_RSMALL, GI_BIGS, GI_REACH, bin_all, cell_insert, cell_of_point, next_or_big, reach_of, walk_block, walk_reach
 from .predict import INF, shear_image, wrap3
 
 
@@ -16,14 +16,6 @@ from .predict import INF, shear_image, wrap3
 def _walk_buffer(grid):
     """Room for the cells of any walk of ``grid``: a sliding face's rows or a big's block (:func:`.cells.cells_buffer_size`)."""
     return np.empty(max(18 + 3 * max(grid.shape[0], 3), (2 * grid.shape[GI_REACH] + 1) ** 3), np.int32)
-
-
-@leaf
-def _walk_of(grid, c, geo, cbuf, r):
-    """The walk over the neighbourhood of cell ``c`` of a particle of radius ``r``: a big's block, or the 3^d cells."""
-    if grid.shape[GI_BIGS] == 0:
-        return walk_around(grid, c, geo, cbuf)
-    return walk_block(grid, c, geo, cbuf, np.int64(-1), np.int64(0), reach_of(grid, r))
 
 
 @jit_alloc
@@ -44,7 +36,7 @@ def close_pairs(pos, radius, geo, grid, scale):
     ii, jj, dd = [], [], []
     for i in range(n):
         big = radius[i] > r_small
-        nc, s, j = _walk_of(grid, np.int64(grid.cell[i]), geo, cbuf, radius[i])
+        nc, s, j = walk_reach(grid, np.int64(grid.cell[i]), geo, cbuf, radius[i])
         b = 0 if big else nbig
         while True:
             in_walk = j >= 0

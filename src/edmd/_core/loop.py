@@ -17,7 +17,7 @@ import numpy as np
 
 from . import layout as L
 from .bath import bath_event
-from .cells import GI_BIGS, bin_all, cell_count, reach_of, walk_around, walk_block, walk_next
+from .cells import bin_all, next_or_big, walk_reach
 from .collide import collide_pair, collide_wall
 from .emdstar import emd_contact, emd_contact_frictional, execute_b, finish_contact, is_pending
 from .forcing import white_noise_kick
@@ -61,18 +61,13 @@ def _debug_check(i, j, t, P, grid, geo, fp, acc, cnt, cbuf, contact_only, scale,
         return False
     if contact_only:
         return True
-    bigs, first = grid.shape[GI_BIGS], cell_count(grid)
     for p in (np.int64(i), np.int64(j)):  # (lists: the grid of centres, a superset of the listed partners)
-        if bigs == 0:
-            nc, s, k = walk_around(grid, grid.cell[p], geo, cbuf)
-        else:  # (big particles, cells.py: a big's wider block, and every big)
-            nc, s, k = walk_block(grid, grid.cell[p], geo, cbuf, np.int64(-1), np.int64(0), reach_of(grid, P[p, L.R]))
-        while k >= 0:
-            if k != p and _bad_contact(p, k, t, P, geo, tol, acc, cnt, False, grown):
-                return False
-            nc, s, k = walk_next(grid, cbuf, nc, s, k)
-        for b in range(bigs):
-            k = grid.head[first + b]
+        nc, s, q = walk_reach(grid, grid.cell[p], geo, cbuf, P[p, L.R])  # (big particles, cells.py: a big's wider block, and every big)
+        b = 0
+        while True:
+            k, nc, s, q, b = next_or_big(grid, cbuf, nc, s, q, b)
+            if k < 0:
+                break
             if k != p and _bad_contact(p, k, t, P, geo, tol, acc, cnt, False, grown):
                 return False
     return True

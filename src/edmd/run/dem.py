@@ -131,16 +131,11 @@ class DEMEngine:
         if limit <= 0.0:
             raise StateError(f"box length {state.box.min():g} must exceed twice the largest contact distance ({2 * sigma_max:g})")
         self.skin = min(float(skin), 0.99 * limit)
-        grid = self._grid(state.radius)
-        self.grid_cells = grid.shape[:3].copy()
+        self.capacity = 0  # (set by load from the grid, grown on overflow)
         self.cnt = np.zeros(L.N_COUNTERS, np.int64)
         self.acc = np.zeros(L.N_ACC)
         self.sums = np.zeros(_dem.N_SUMS)
         self.cbuf = np.zeros(27, np.int32)
-        n_density = state.n / state.volume
-        reach = 2.0 * min(float(grid.size[GF_RSMALL]), 0.5 * sigma_max) + self.skin  # (a row holds no big's partners)
-        ball = (4.0 / 3.0 * math.pi * reach**3) if self.dim == 3 else (math.pi * reach**2)
-        self.capacity = int(1.2 * n_density * ball) + 8
         self.load(state)
 
     # ------------------------------------------------------------------ set-up
@@ -165,6 +160,7 @@ class DEMEngine:
         self.vp = np.zeros((n, 3))
         self.dsp = np.zeros((n, 3))
         self.grid = self._grid(self.radius)
+        self.capacity = max(self.capacity, self._row_estimate(state))
         rows = n if self.friction is not None else 1
         omega = np.zeros((rows, 3))
         if self.friction is not None:
@@ -181,6 +177,15 @@ class DEMEngine:
         """The cell grid of the list builds: cells of the largest contact plus the skin, or of the
         others' with a few big particles taken out (:func:`.neighbours.overlap_grid`)."""
         return overlap_grid(radius, self.box, np.r_[self.periodic, [False] * (3 - self.dim)], self.dim, pad=self.skin)
+
+    def _row_estimate(self, state: State) -> int:
+        """Slots a list row needs at ``state``'s density: 1.2 times the particles within the
+        largest contact the rows hold (with big particles, of the others: a row holds no big's
+        partners) plus the skin, and 8."""
+        r_row = min(float(self.grid.size[GF_RSMALL]), float(self.radius.max()))
+        reach = 2.0 * r_row + self.skin
+        ball = (4.0 / 3.0 * math.pi * reach**3) if self.dim == 3 else (math.pi * reach**2)
+        return int(1.2 * state.n / state.volume * ball) + 8
 
     def _setup(self):
         """Allocate the list at the current capacity and build it; springs come from ``rot.nbl_old``."""

@@ -35,7 +35,7 @@ from ..physics import collide
 from ..physics.emdstar import EMDStar, FrictionTableWarning, emd_bundle, friction_table_misses
 from ..physics.tables import PAIR_SPECIES
 from .memory import grid_shape
-from .neighbours import big_count, cell_edge, local_densities
+from .neighbours import big_count, block_reach, cell_edge, local_densities
 from ..state import State, StateError, default_inertia, filled, rescale_temperature
 
 #: ``INFO`` when a run must compile its loop variant first (the CLI shows it)
@@ -229,19 +229,18 @@ class Engine:
         mode = opt.neighbours
         reach = list_reach(self.fp)
         sigma_max, periodic_len, periodic3 = self._grid_ranges(state)
+        split = None if mode == "list" else self._big_split(state, periodic_len, periodic3)
         if mode == "auto":
             threshold = AUTO_THRESHOLD[self.dim] if opt.auto_threshold is None else opt.auto_threshold
             mode = "list" if (state.packing_fraction >= threshold or self._pair_state) and self.shear is None else "cells"
-            if mode == "list" and not self._pair_state:
-                split = self._big_split(state, periodic_len, periodic3)
-                if split is not None and float(state.radius.max()) >= AUTO_BIG_RATIO * split[1]:
-                    mode = "cells"  # (big particles: lists' centre cells and every list would be sized by them)
+            if mode == "list" and not self._pair_state and split is not None and float(state.radius.max()) >= AUTO_BIG_RATIO * split[1]:
+                mode = "cells"  # (big particles: lists' centre cells and every list would be sized by them)
         if mode == "cells" and self._pair_state:
             what = "square wells" if self.well is not None else "growing particles"
             raise StateError(f"{what} need neighbours='list' (or 'auto'): their pair events are predicted over neighbour lists")
         self.r_small, self.big_reach = math.inf, 1  # (no big particles)
         if mode == "cells":
-            cells = self._cells(state, sigma_max, periodic_len, periodic3)
+            cells = self._cells(state, sigma_max, periodic_len, periodic3, split)
             if cells is not None:
                 cells, self.r_small, self.big_reach = cells
                 if self.r_small < math.inf:
@@ -283,11 +282,10 @@ class Engine:
         sigma_max = 2.0 * float(state.radius.max()) * list_reach(self.fp)
         return sigma_max, self.box[: self.dim][self.periodic], np.r_[self.periodic, [False] * (3 - self.dim)]
 
-    def _cells(self, state: State, sigma_max: float, periodic_len, periodic3):
+    def _cells(self, state: State, sigma_max: float, periodic_len, periodic3, split):
         """``(cells, r_small, reach)`` of cells mode (``None``: none fit): the cells per axis, with a
-        few big particles taken out of the cell size where that pays (:meth:`_big_split`; else
-        ``r_small = inf``, ``reach = 1``)."""
-        split = self._big_split(state, periodic_len, periodic3)
+        few big particles taken out of the cell size where that pays (``split``, :meth:`_big_split`;
+        else ``r_small = inf``, ``reach = 1``)."""
         if split is not None:
             return split
         if np.any(periodic_len < 4.0 * sigma_max):
@@ -318,7 +316,7 @@ class Engine:
         split = cells[: self.dim] > 1
         if not split.any():
             return None
-        reach = math.ceil((r_max + r_small) / lengths[split].min() * (1.0 + 1e-12))
+        reach = block_reach(r_max + r_small, lengths[split])
         periodic = split & self.periodic
         if np.any(cells[: self.dim][periodic] < 2 * reach + 2) or np.any(self.box[: self.dim][periodic] < 2.0 * sigma_max + 4.0 * lengths[periodic]):
             return None
@@ -478,7 +476,8 @@ class Engine:
             self._start_segment()
             self._choose_neighbours(state)  # (the radii have grown: cells of the list grid, skin, capacity)
         elif self.mode == "cells" and self.options.cell_size is None and np.any(self.grav != 0.0):
-            cells = self._cells(state, *self._grid_ranges(state))  # (a bed settles or lifts: the cells follow its density)
+            sigma_max, periodic_len, periodic3 = self._grid_ranges(state)  # (a bed settles or lifts: the cells follow its density)
+            cells = self._cells(state, sigma_max, periodic_len, periodic3, self._big_split(state, periodic_len, periodic3))
             if cells is not None:
                 self.grid_cells, self.r_small, self.big_reach = cells
                 self.cbuf = np.zeros(cells_buffer_size(self.grid_cells, False, self.big_reach), np.int32)

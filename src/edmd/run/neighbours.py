@@ -181,6 +181,17 @@ def local_densities(position: np.ndarray, box: np.ndarray, sigma: float) -> tupl
     return values / volume, values * bins
 
 
+def block_reach(distance: float, edges) -> int:
+    """Cells ``K`` a big particle scans to each side: the fewest with :math:`K\\ell \\ge` ``distance``
+    for the shortest of the cell ``edges`` (a relative margin of 1e-12 against rounding).
+
+    Example:
+        >>> block_reach(5.5, np.array([1.0, 1.1])), block_reach(5.0, np.array([1.0]))
+        (6, 6)
+    """
+    return math.ceil(distance / float(np.min(edges)) * (1.0 + 1e-12))
+
+
 def overlap_grid(radius: np.ndarray, box3: np.ndarray, periodic3, dim: int, scale: float = 1.0, shear: bool = False, pad: float = 0.0):
     """The cell grid of the set-up's overlap searches (:mod:`edmd._core.geometry`: placing,
     relaxing and checking particles) for contacts up to ``scale`` times :math:`R_i + R_j`, plus
@@ -209,7 +220,7 @@ def overlap_grid(radius: np.ndarray, box3: np.ndarray, periodic3, dim: int, scal
         nc = grid_shape(box3, periodic3, 2.0 * scale * r_small + pad, n, dim)
         split = nc > 1
         if split.any():
-            reach = math.ceil((scale * (r_max + r_small) + pad) / float(np.min(box3[split] / nc[split])) * (1.0 + 1e-12))
+            reach = block_reach(scale * (r_max + r_small) + pad, box3[split] / nc[split])
             if not np.any(periodic3 & split & (nc < 2 * reach + 1)):
                 return new_grid(n, box3, nc, np.flatnonzero(radius > r_small).astype(np.int32), reach, r_small)
     return new_grid(n, box3, grid_shape(box3, periodic3, 2.0 * scale * r_max + pad, n, dim))
