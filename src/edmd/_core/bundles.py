@@ -124,6 +124,8 @@ class Spins(NamedTuple):
     hist_old: np.ndarray  #: (N, K, 3) the springs of the previous list (carried into a new one)
     nbl_old: np.ndarray  #: (N, K) int32 the previous list
     nbl_n_old: np.ndarray  #: (N,) int32 its row lengths
+    dv: np.ndarray  #: (N, 3) the velocity jumps of this step's contact onsets, applied after the force loop
+    dw: np.ndarray  #: (N, 3) the same for the angular velocities
 
 
 def new_events(n: int) -> Events:

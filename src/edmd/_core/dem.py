@@ -148,6 +148,17 @@ def _torque(out, i, j, si, sj, fx, fy, fz, nx, ny, nz):
 
 
 @leaf
+def _jump(out, i, j, px, py, pz, mi, mj):
+    """Add the velocity jumps of the impulse ``p`` on ``i`` (``-p`` on ``j``) to rows ``i`` and ``j`` of ``out``."""
+    out[i, 0] += px / mi
+    out[i, 1] += py / mi
+    out[i, 2] += pz / mi
+    out[j, 0] -= px / mj
+    out[j, 1] -= py / mj
+    out[j, 2] -= pz / mj
+
+
+@leaf
 def _friction(rot, fric, model, ca, cb, vel, vp, mass, i, j, k, ri, rj, reff, xi, xi_dot, fn, nx, ny, nz, onset, h):
     r"""Tangential force of the contact ``(i, j)`` (half-list entry ``k``), its spring advanced over the step ``h``.
 
@@ -178,14 +189,11 @@ def _friction(rot, fric, model, ca, cb, vel, vp, mass, i, j, k, ri, rj, reff, xi
     hist[i, k, 0], hist[i, k, 1], hist[i, k, 2] = zx, zy, zz
     si, sj = li / rot.inertia[i], lj / rot.inertia[j]
     _torque(rot.alpha, i, j, si, sj, fx, fy, fz, nx, ny, nz)
-    if onset:  # the jump of a dashpot contact's tangential force (see _onset_weight)
+    if onset:  # the jump of a dashpot contact's tangential force (see _onset_weight), applied after the loop
         w = _onset_weight(model, xi, xi_dot, h)
         if w != 0.0:
-            mi, mj = 1.0 / mass[i], 1.0 / mass[j]
-            for a, fa in ((0, fx), (1, fy), (2, fz)):
-                vel[i, a] += w * fa * mi
-                vel[j, a] -= w * fa * mj
-            _torque(rot.omega, i, j, w * si, w * sj, fx, fy, fz, nx, ny, nz)
+            _jump(rot.dv, i, j, w * fx, w * fy, w * fz, mass[i], mass[j])
+            _torque(rot.dw, i, j, w * si, w * sj, fx, fy, fz, nx, ny, nz)
     return fx, fy, fz, 0.5 * stiff * (zx * zx + zy * zy + zz * zz), -(fx * ux + fy * uy + fz * uz)
 
 
@@ -199,7 +207,11 @@ def _forces(pos, vel, vp, acc, mass, radius, nbl, nbl_n, tch, geo, model, ca, cb
     dissipated power, the onsets, the power taken by the tangential forces
     :math:`-\sum\mathbf F_t\cdot\mathbf v_t` and the springs' energy. Contacts that
     began during the step of size ``h`` just taken get the onset correction
-    :func:`_onset_weight`, applied to ``vel`` (``h = 0``: none, and the springs stay).
+    :func:`_onset_weight` (``h = 0``: none, and the springs stay): a velocity jump, added to
+    ``vel`` at once in smooth runs (nothing in the loop reads ``vel``), and with friction
+    collected in ``rot.dv``, ``rot.dw`` and applied with the step's last kick (:func:`dem_steps`): the
+    springs grow with ``vel``, which must then be the same for every pair, whatever its place
+    in the loop (a run does not depend on the particles' labels).
     """
     n = pos.shape[0]
     frictional = fric[0] > 0
@@ -234,12 +246,7 @@ def _forces(pos, vel, vp, acc, mass, radius, nbl, nbl_n, tch, geo, model, ca, cb
                 onsets += 1
                 tch[i, k] = 1
                 dj = _onset_weight(model, sig - r, xi_dot, h) * (f - f_el)
-                vel[i, 0] += dj * nx / mi
-                vel[i, 1] += dj * ny / mi
-                vel[i, 2] += dj * nz / mi
-                vel[j, 0] -= dj * nx / mass[j]
-                vel[j, 1] -= dj * ny / mass[j]
-                vel[j, 2] -= dj * nz / mass[j]
+                _jump(rot.dv if frictional else vel, i, j, dj * nx, dj * ny, dj * nz, mi, mass[j])
             u += u_el
             vir += f * r
             pd += (f - f_el) * xi_dot
@@ -402,13 +409,17 @@ def dem_steps(pos, vel, acc, vp, dsp, image, mass, radius, nbl, nbl_n, tch, grid
         if frictional:
             _kick_spins(rot, hh)
         u, vir, pd, onsets, pt, ut = _forces(pos, vel, vp, acc, mass, radius, nbl, nbl_n, tch, geo, model, ca, cb, rot, fric, h)
-        # kick, kinetic energy, and the displacement the next drift would reach
+        # kick (with friction also the onset jumps deferred by _forces), kinetic energy, and the displacement the next drift would reach
         ke = 0.0
         worst = 0.0
+        dv = rot.dv
         for i in range(n):
             d2 = 0.0
             for a in range(3):
                 v = vel[i, a] + hh * acc[i, a]
+                if frictional:
+                    v += dv[i, a]
+                    dv[i, a] = 0.0
                 vel[i, a] = v
                 ke += mass[i] * v * v
                 d = dsp[i, a] + h * (v + hh * acc[i, a])
@@ -416,10 +427,11 @@ def dem_steps(pos, vel, acc, vp, dsp, image, mass, radius, nbl, nbl_n, tch, grid
             worst = max(worst, d2)
         ke *= 0.5
         if frictional:
-            om, al = rot.omega, rot.alpha
+            om, al, dw = rot.omega, rot.alpha, rot.dw
             for i in range(n):
                 for a in range(3):
-                    om[i, a] += hh * al[i, a]
+                    om[i, a] += hh * al[i, a] + dw[i, a]
+                    dw[i, a] = 0.0
         sums[S_KE_INT] += hh * (sums[S_KE] + ke)
         sums[S_VIR_INT] += hh * (sums[S_VIR] + vir)
         sums[S_DISS] += hh * (sums[S_PDISS] + pd)

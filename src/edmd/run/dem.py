@@ -170,7 +170,7 @@ class DEMEngine:
             springs = (old.hist, self.nbl, self.nbl_n)
         else:
             springs = (np.zeros((rows, 1, 3)), np.zeros((rows, 1), np.int32), np.zeros(rows, np.int32))
-        self.rot = Spins(omega, omega.copy(), np.zeros((rows, 3)), self.inertia, np.zeros((rows, 1, 3)), *springs)
+        self.rot = Spins(omega, omega.copy(), np.zeros((rows, 3)), self.inertia, np.zeros((rows, 1, 3)), *springs, np.zeros((rows, 3)), np.zeros((rows, 3)))
         self._setup()
 
     def _grid(self, radius):
