@@ -96,3 +96,20 @@ def test_a_rebuild_of_a_full_list_frees_the_departed_first(dim):
         assert _listed_pairs(engine) == _pairs_by_distance(engine, dim)
         return
     pytest.fail("no full list found whose rebuild swaps neighbours")
+
+
+
+@pytest.mark.parametrize("radius", [0.5, {"kind": "uniform", "min": 0.1, "max": 1.0}], ids=["equal", "ratio-10"])
+def test_first_build_counts_then_fills_rows_of_the_fullest(dim, radius):
+    # lists of no columns are counted, not built: the counts are the sizes of the built lists
+    # (which are the pairs within reach), and the engine's first build makes rows of the fullest
+    # plus the margin at once (no transient rows of a guessed size)
+    s = edmd.maxwell_boltzmann(edmd.random_packing(400, 0.4, dim=dim, seed=3, radius=radius), 1.0, seed=4)
+    engine = edmd.Simulation(s, engine=EngineOptions(neighbours="list")).engine
+    sizes = engine.lists.size
+    assert engine.lists.members.shape[1] == int(sizes.max() * 1.25) + 4 == engine.list_capacity
+    assert _listed_pairs(engine) == _pairs_by_distance(engine, dim)
+    grid = type(engine.grid)(*(a.copy() for a in engine.grid))
+    counted = Lists(np.zeros((engine.n, 0), np.int32), np.zeros(engine.n, np.int32), np.zeros((engine.n, 3)))
+    assert not nblist.build_lists(engine.part.rows, grid, counted, engine.geo, engine.fp[L.FP_SKIN], nblist.list_reach(engine.fp), engine.cbuf)
+    assert np.array_equal(counted.size, sizes) and sizes.sum() > 2 * engine.n

@@ -70,7 +70,8 @@ def _link_neighbours(i, P, grid, lists, geo, skin, reach, cbuf, only_higher, kep
     """Add every ``j`` whose centre is within ``reach * sigma_ij + skin`` of ``c_i`` to both lists
     (``reach``: 1, or a square well's :math:`\\lambda`: its edge is the interaction range).
 
-    With ``only_higher`` only ``j > i`` is considered (initial build, each pair once). The first
+    With ``only_higher`` only ``j > i`` is considered (initial build, each pair once); lists of
+    no columns are only counted (both sizes grow, nothing is stored). The first
     ``kept`` entries of ``i``'s list are its old neighbours as ``~k`` (a rebuild): one found again
     is restored in place, and its own list, which still holds ``i``, is not touched.
     Returns ``False`` when a list is full.
@@ -90,7 +91,10 @@ def _link_neighbours(i, P, grid, lists, geo, skin, reach, cbuf, only_higher, kep
             tested += 1
             d2 = listing_distance2(cx - centre[j, 0], cy - centre[j, 1], cz - centre[j, 2], geo)
             if d2 < far * far and (d2 < near * near or d2 < (ri + reach * P[j, R]) ** 2):
-                if not _found_again(nbl, i, kept, j):
+                if cap == 0:  # (the counting pass of an initial build: sizes only)
+                    nbl_n[i] += 1
+                    nbl_n[j] += 1
+                elif not _found_again(nbl, i, kept, j):
                     if nbl_n[i] >= cap and kept > 0:  # (the departed still hold slots: free them)
                         _forget_departed(nbl, nbl_n, i)
                         kept = 0
@@ -142,7 +146,9 @@ def rebuild_list(i, P, grid, lists, geo, skin, reach, cbuf):
 def build_lists(P, grid, lists, geo, skin, reach, cbuf):
     """Build all neighbour lists from scratch, centred at the stored positions, and record the
     largest and smallest radius in the grid (``Grid.size[GF_RMAX]``, ``[GF_RMIN]``: the radii
-    change only at loads, each of which builds the lists)."""
+    change only at loads, each of which builds the lists). ``False`` when a list is full; lists of
+    no columns are counted instead (``lists.size``, then ``False``): the caller sizes them by the
+    fullest without a transient of spare columns."""
     head = grid.head
     head[:] = -1
     nbl_n = lists.size
@@ -159,7 +165,7 @@ def build_lists(P, grid, lists, geo, skin, reach, cbuf):
     for i in range(n):
         if not _link_neighbours(i, P, grid, lists, geo, skin, reach, cbuf, True, 0):
             return False
-    return True
+    return lists.members.shape[1] > 0
 
 
 @leaf

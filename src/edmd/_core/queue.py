@@ -284,6 +284,8 @@ def calendar_shape(keys, t_now, events_per_bucket=8.0):
     k = min(later.size - 1, max(8, n // 4))
     rate = (dt.size - later.size + k + 1) / later[k]
     width = events_per_bucket / rate
-    horizon = np.quantile(dt, 0.9) * 4.0
+    v = 0.9 * (dt.size - 1)  # (np.quantile of dt, which is sorted, from the two values around it: no copy of dt)
+    lo = int(v)
+    horizon = np.quantile(dt[lo : lo + 2], v - lo) * 4.0
     nb = int(min(max(horizon / width, 16), 4 * n + 16))
     return float(width), nb

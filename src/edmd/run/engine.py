@@ -272,10 +272,7 @@ class Engine:
             self.grid_cells = cells
         else:
             self.grid_cells = grid_shape(self.box, periodic3, sigma_max + skin, self.n, self.dim)
-            n_density = state.n / state.volume
-            reach = sigma_max + skin
-            ball = (4.0 / 3.0 * math.pi * reach**3) if self.dim == 3 else (math.pi * reach**2)
-            self.list_capacity = max(self.list_capacity, int(1.6 * n_density * ball) + 8)
+            self.list_capacity = 0  # (the next build counts the lists first: _rebuild)
 
     def _grid_ranges(self, state: State):
         """The largest interaction range, the periodic box lengths and the periodic flags of 3 axes."""
@@ -626,12 +623,18 @@ class Engine:
             return 0.0
         return -self.well.depth * 0.5 * float(self.pairs.captured_n.sum())
 
+    @staticmethod
+    def _list_room(sizes: np.ndarray) -> int:
+        """Columns of the list rows for lists of ``sizes``: the fullest plus a margin (a list that
+        outgrows it sends the run to a resync with more)."""
+        return int(sizes.max() * 1.25) + 4
+
     def _trim_lists(self):
-        """Shrink list rows to the fullest list plus a margin (lists grow again on overflow), in
+        """Shrink list rows to :meth:`_list_room` (lists grow again on overflow), in
         place: the rows move to the front of their buffer, which is then cut (no second copy)."""
         nbl, nbl_n, centre = self.lists
         n, old = nbl.shape
-        cap = int(nbl_n.max() * 1.25) + 4
+        cap = self._list_room(nbl_n)
         if cap >= old:
             return
         self.lists = None
@@ -663,12 +666,12 @@ class Engine:
         while True:
             bigs = np.flatnonzero(self.part.rows[:, L.R] > self.r_small).astype(np.int32)  # (none without a split)
             self.grid = new_grid(n, self.box, self.grid_cells, bigs, self.big_reach, self.r_small)
-            cap = max(self.list_capacity, 1) if self.mode == "list" else 1
+            cap = self.list_capacity if self.mode == "list" else 1  # (0: count the lists first)
             nl = n if self.mode == "list" else 1
             self.lists = Lists(np.zeros((nl, cap), np.int32), np.zeros(nl, np.int32), np.zeros((nl, 3)))
             if self.loop.setup_events(self.part, self.ev, self.grid, self.lists, geo, self.fp, self.ip, self.cbuf, self.emd, self.drive, self.pairs, 0.0, self._derive_captures):
                 break
-            self.list_capacity = int(self.list_capacity * 1.5) + 4
+            self.list_capacity = self._list_room(self.lists.size) if cap == 0 else int(self.list_capacity * 1.5) + 4
         if self.mode == "list":
             self._trim_lists()
         keys = np.empty(n + L.N_TIMERS)
