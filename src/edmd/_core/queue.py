@@ -265,7 +265,8 @@ def calendar_shape(keys, t_now, events_per_bucket=8.0):
     The event rate is estimated from the earliest finite predicted keys: ``k`` keys after
     ``t_now`` and those at ``t_now`` itself (a lattice start in cells mode has thousands of
     particles on cell faces) fall within the ``k``-th key after it. The calendar spans a few mean
-    prediction horizons so that the overflow list stays small.
+    prediction horizons so that the overflow list stays small. ``keys`` are sorted in place (no
+    copy of N keys at a load; the caller fills them again for :func:`queue_build`).
 
     Example:
         >>> keys = np.r_[np.zeros(3000), np.linspace(0.001, 1.0, 1000)]   # many events now
@@ -274,10 +275,10 @@ def calendar_shape(keys, t_now, events_per_bucket=8.0):
         (1000, 2400)
     """
     n = keys.shape[0]
-    dt = keys[np.isfinite(keys)]  # (a copy, then changed in place: one array the size of keys)
+    keys.sort()
+    dt = keys[np.searchsorted(keys, -np.inf, side="right") : np.searchsorted(keys, np.inf)]  # (the finite keys, sorted)
     dt -= t_now
-    np.maximum(dt, 0.0, out=dt)
-    dt.sort()
+    np.maximum(dt, 0.0, out=dt)  # (still sorted)
     later = dt[np.searchsorted(dt, 0.0, side="right") :]
     if later.size < 2:
         return 1.0, 1

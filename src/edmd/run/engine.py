@@ -675,30 +675,49 @@ class Engine:
         if self.mode == "list":
             self._trim_lists()
         keys = np.empty(n + L.N_TIMERS)
-        np.minimum(self.ev.pair_t, self.ev.aux_t, out=keys[:n])
-        keys[n:] = self.drive.timer_t  # timers after the particles
-        width, nb = calendar_shape(keys, 0.0, self.options.events_per_bucket)
+        width, nb = calendar_shape(self._calendar_keys(keys), 0.0, self.options.events_per_bucket)  # (sorts them)
         self.q = new_queue(n + L.N_TIMERS, nb)
-        queue_build(self.q, keys, 0.0, width, nb)
+        queue_build(self.q, self._calendar_keys(keys), 0.0, width, nb)
         del keys
         self.acc[L.A_NOW] = 0.0
         self.acc[L.A_LAST_T] = 0.0
-        committed = self.part.rows[:, L.VX : L.VZ + 1]  # particles are all at local time 0
-        if self.emd_rule is not None:
-            committed = committed + self.emd.pending_dv
-        if self.shear is not None:  # the sums are peculiar (_core/stress.py)
-            committed = committed.copy()
-            committed[:, 0] -= self.shear.rate * self.part.rows[:, L.Y]
-        self.acc[L.A_KE] = 0.5 * float(self.part.mass @ np.einsum("ij,ij->i", committed, committed))
-        self.acc[L.A_PX : L.A_PZ + 1] = np.einsum("i,ij->j", self.part.mass, committed)
-        tensor = np.einsum("i,ij,ik->jk", self.part.mass, committed, committed)  # (no N-sized temporary)
-        self.acc[L.A_KT : L.A_KT + 6] = [tensor[a, b] for a, b in L.TENSOR_AXES]
-        energy = 0.5 * self.part.mass * np.einsum("ij,ij->i", committed, committed)
-        if len(self.part.omega):
-            energy += 0.5 * self.part.inertia * np.einsum("ij,ij->i", self.part.omega, self.part.omega)
-        self.acc[L.A_JE : L.A_JE + 3] = energy @ committed
-        del energy
+        self._start_sums()
         self.events_at_sync = int(self.cnt[L.C_EVENTS])
+
+    def _calendar_keys(self, keys: np.ndarray) -> np.ndarray:
+        """Fill ``keys`` with the calendar's keys: each particle's earliest event, then the timers."""
+        n = self.n
+        np.minimum(self.ev.pair_t, self.ev.aux_t, out=keys[:n])
+        keys[n:] = self.drive.timer_t
+        return keys
+
+    def _start_sums(self):
+        """The accumulators' running sums of the particles, all at local time 0: kinetic energy,
+        momentum, the tensor ``sum m v (x) v`` and the energy current,
+        of the committed velocities (eMD*: with the pending jumps; shear: peculiar, see
+        ``_core/stress.py``), a block of rows at a time (no temporary of every particle)."""
+        rows, mass, part = self.part.rows, self.part.mass, self.part
+        ke, momentum, tensor, current = 0.0, np.zeros(3), np.zeros((3, 3)), np.zeros(3)
+        for a in range(0, self.n, 1 << 16):
+            b = min(self.n, a + (1 << 16))
+            v, m = rows[a:b, L.VX : L.VZ + 1], mass[a:b]
+            if self.emd_rule is not None:
+                v = v + self.emd.pending_dv[a:b]
+            if self.shear is not None:
+                v = v.copy()
+                v[:, 0] -= self.shear.rate * rows[a:b, L.Y]
+            v2 = np.einsum("ij,ij->i", v, v)
+            ke += 0.5 * float(m @ v2)
+            momentum += np.einsum("i,ij->j", m, v)
+            tensor += np.einsum("i,ij,ik->jk", m, v, v)
+            energy = 0.5 * m * v2
+            if len(part.omega):
+                energy += 0.5 * part.inertia[a:b] * np.einsum("ij,ij->i", part.omega[a:b], part.omega[a:b])
+            current += energy @ v
+        self.acc[L.A_KE] = ke
+        self.acc[L.A_PX : L.A_PZ + 1] = momentum
+        self.acc[L.A_KT : L.A_KT + 6] = [tensor[a, b] for a, b in L.TENSOR_AXES]
+        self.acc[L.A_JE : L.A_JE + 3] = current
 
     # ------------------------------------------------------------------ running
     @property
