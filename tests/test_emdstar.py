@@ -224,16 +224,28 @@ def test_many_body_gas_runs_and_conserves(dim):
 
 def test_cells_and_lists_give_the_same_contacts(dim):
     """In cells mode an A event predicts both partners in its relocation scans (emdstar.relocation_scan),
-    list mode by the full re-prediction over the lists: the same contacts, exceptions included."""
+    list mode by the full re-prediction over the lists: the same contacts, exceptions included.
+    The lists are cut to the fullest again and again, so that they overflow, also in the A events'
+    relocations (a contact made there, then a resync, is counted and logged all the same)."""
     state = edmd.maxwell_boltzmann(edmd.random_packing(300, 0.1, dim=dim, seed=7), 1.0, seed=8)
     rule = EMDStar(Hertz(young=2e3, poisson=0.3, A=2e-3))
     logs, counters = [], []
     for mode in ("cells", "list"):
         sim = Simulation(state, collision=rule, engine={"neighbours": mode})
         sim.engine.enable_log()
-        sim.run(until_time=3.0)
+        overflows = 0
+        for t in np.linspace(0.1, 3.0, 30):
+            engine, cut = sim.engine, 0
+            if mode == "list":
+                members, size, _centre = engine.lists
+                cut = engine.list_capacity = int(size.max())
+                engine.lists = engine.lists._replace(members=np.ascontiguousarray(members[:, :cut]))
+            sim.run(until_time=t)
+            overflows += mode == "list" and engine.list_capacity != cut  # (an overflow grows the rows)
         logs.append(sim.engine.take_log())
         counters.append(sim.engine.emd_counters())
+        assert sim.collisions == counters[-1]["emd_contacts"] + counters[-1]["emd_fallbacks"] == len(logs[-1])
+    assert overflows > 2
     assert counters[0] == counters[1] and counters[0]["emd_contacts"] > 150 and counters[0]["emd_exceptions_b"] > 0
     assert len(logs[0]) == len(logs[1])
     assert np.array_equal(np.sort(logs[0][:, 1:3], axis=1), np.sort(logs[1][:, 1:3], axis=1))

@@ -341,7 +341,9 @@ def _make_loop(walls, emd_on, rough, normal, bath_on, kick_on, well, grow):
                             outcome = emd_contact_frictional(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt, cbuf, emd, bath_t, pairs)
                         else:
                             outcome = emd_contact(t, i, j, part, ev, q, grid, lists, geo, mode, fp, ip, acc, cnt, cbuf, emd, bath_t, pairs)
-                        if outcome == CONTACT_LIST_FULL:
+                        if outcome == CONTACT_LIST_FULL:  # (made: counted and logged; the resync predicts)
+                            cnt[L.C_COLL] += 1
+                            _log_collision(clog, cnt, log_cap, t, i, j, acc[L.A_EMD_VN], acc[L.A_EMD_VT])
                             return L.ST_LIST_FULL
                         if outcome == CONTACT_SOFT:
                             vn, vt = acc[L.A_EMD_VN], acc[L.A_EMD_VT]
