@@ -9,6 +9,7 @@ from edmd._core.cells import GI_BIGS, GI_REACH
 from edmd import LinearDashpot
 from edmd.physics.emdstar import EMDStar
 from edmd.run.engine import EngineOptions
+from edmd.state import StateError
 from reference import run_reference
 
 MODES = ["list", "cells"]
@@ -312,3 +313,33 @@ def test_auto_takes_cells_up_to_the_measured_crossover_and_lists_from_it(dim):
         assert edmd.Simulation(state).engine.mode == mode
     state = edmd.random_packing(400, 0.25, dim=dim, seed=1)
     assert edmd.Simulation(state, engine={"auto_threshold": 0.2}).engine.mode == "list"
+
+
+@pytest.mark.parametrize("mode", ["cells", "list"])
+def test_a_loaded_state_with_larger_particles_gets_its_own_neighbour_structure(dim, mode):
+    """A state assigned to a Simulation built for smaller particles runs as in a Simulation of its
+    own: cells, lists (and a big particle's block) are chosen again for its radii. (They were
+    kept: the larger particles' contacts were missed, and the debug check failed.)"""
+    n = 600
+    big = {"kind": "discrete", "values": [0.5, 1.2 if mode == "list" else 3.0], "fractions": [n - 20, 20]}
+    a = edmd.maxwell_boltzmann(edmd.random_packing(n, 0.1, dim=dim, radius=big, seed=1), 1.0, seed=2)
+    b = a.copy()
+    b.radius = np.full(n, 0.5)
+    sim = edmd.Simulation(b, engine=EngineOptions(neighbours=mode, debug=True))
+    sim.state = a
+    fresh = edmd.Simulation(a, engine=EngineOptions(neighbours=mode, debug=True))
+    for run in (sim, fresh):
+        run.run(until_time=5.0)
+    assert sim.collisions == fresh.collisions > 300
+    assert np.array_equal(sim.state.position, fresh.state.position)
+
+
+def test_a_loaded_state_must_have_the_same_box(dim):
+    """A state of another box (or other periodic axes) is refused, naming both, instead of running in the old box."""
+    a = edmd.maxwell_boltzmann(edmd.random_packing(200, 0.1, dim=dim, seed=1), 1.0, seed=2)
+    sim = edmd.Simulation(a)
+    with pytest.raises(StateError, match=r"must have the simulation's box .* got"):
+        sim.state = edmd.maxwell_boltzmann(edmd.random_packing(200, 0.3, dim=dim, seed=1), 1.0, seed=2)
+    walled = edmd.random_packing(200, 0.1, dim=dim, seed=1, periodic=[True] * (dim - 1) + [False])
+    with pytest.raises(StateError, match="periodic axes"):
+        sim.state = edmd.State(position=walled.position, velocity=walled.velocity, radius=walled.radius, mass=walled.mass, box=a.box, periodic=walled.periodic)

@@ -118,6 +118,12 @@ def _species(state: State) -> list[tuple[float, float]] | None:
     return [(float(masses[k // radii.size]), float(radii[k % radii.size])) for k in kinds]
 
 
+def _radii_key(radius: np.ndarray) -> tuple[float, float, float]:
+    """What the neighbour structure depends on of the radii (the largest, the smallest and their sum):
+    a loaded state with another key gets its structure chosen again."""
+    return float(radius.max()), float(radius.min()), float(radius.sum())
+
+
 class EngineError(RuntimeError):
     """The event loop found an inconsistency (debug mode) or cannot go on."""
 
@@ -191,8 +197,7 @@ class Engine:
         self.work = np.zeros(4, np.int64)  # cells scanned, pairs tested, calendar entries moved, events (work_counters)
         self.collision_log: list[np.ndarray] | None = None
         self.list_capacity = 0
-        self._choose_neighbours(state)
-        self.cbuf = np.zeros(cells_buffer_size(self.grid_cells, shear is not None, self.big_reach), np.int32)
+        self._neighbours_for(state)
         if growth is not None:
             speed = math.sqrt(growth.kT / float(state.mass.mean()))
             args = (state.packing_fraction, self.dim, 2.0 * float(state.radius.max()), speed, float(self.fp[L.FP_SKIN]))
@@ -224,8 +229,14 @@ class Engine:
             log.info("compiling the event loop for %s runs (once; cached afterwards, see `edmd compile`)", name)
 
     # ------------------------------------------------------------------ set-up
+    def _neighbours_for(self, state: State):
+        """Choose the neighbour structure for ``state``'s radii and density, and size the cell walks' buffer."""
+        self._choose_neighbours(state)
+        self.cbuf = np.zeros(cells_buffer_size(self.grid_cells, self.shear is not None, self.big_reach), np.int32)
+
     def _choose_neighbours(self, state: State):
         opt = self.options
+        self._chosen_for = _radii_key(state.radius)
         mode = opt.neighbours
         reach = list_reach(self.fp)
         sigma_max, periodic_len, periodic3 = self._grid_ranges(state)
@@ -306,36 +317,40 @@ class Engine:
         r_max, sigma_max = float(top[-1]), float(top[-1] + top[-2])  # (the largest contact: of the two largest)
         if np.any(periodic_len < 8.0 * r_small):
             return None
-        cells = self._cell_grid(state, 2.0 * r_small, periodic_len, periodic3)
-        if cells is None:
-            return None
-        lengths = self.box[: self.dim] / cells[: self.dim]
-        split = cells[: self.dim] > 1
-        if not split.any():
-            return None
-        reach = block_reach(r_max + r_small, lengths[split])
-        periodic = split & self.periodic
-        if np.any(cells[: self.dim][periodic] < 2 * reach + 2) or np.any(self.box[: self.dim][periodic] < 2.0 * sigma_max + 4.0 * lengths[periodic]):
-            return None
-        return cells, r_small, reach
+        for edge in (None, 2.0 * r_small):  # the cost model's cells, else the smallest (they fit wherever any do)
+            cells = self._cell_grid(state, 2.0 * r_small, periodic_len, periodic3, edge)
+            if cells is None:
+                continue
+            lengths = self.box[: self.dim] / cells[: self.dim]
+            split = cells[: self.dim] > 1
+            if not split.any():
+                continue
+            reach = block_reach(r_max + r_small, lengths[split])
+            periodic = split & self.periodic
+            if np.all(cells[: self.dim][periodic] >= 2 * reach + 2) and np.all(self.box[: self.dim][periodic] >= 2.0 * sigma_max + 4.0 * lengths[periodic]):
+                return cells, r_small, reach
+        return None
 
-    def _cell_grid(self, state: State, sigma_max: float, periodic_len, periodic3):
-        """Cells per axis of cells mode: the edge of ``cell_size`` or of the cost model
+    def _cell_grid(self, state: State, sigma_max: float, periodic_len, periodic3, edge: float | None = None):
+        """Cells per axis of cells mode: the edge ``edge``, else of ``cell_size`` or of the cost model
         (:func:`.neighbours.cell_edge`), at most a quarter of the shortest periodic length; ``None``
         when the memory cap leaves fewer than 4 cells on a periodic axis."""
-        opt = self.options
-        sigma_mean = 2.0 * float(state.radius.mean())
-        if opt.cell_size is not None:
-            edge = opt.cell_size * sigma_max
-        elif np.any(self.grav != 0.0):  # a bed under gravity: its dense layers set the cells (at every load)
-            density, weights = local_densities(state.position, self.box[: self.dim], sigma_mean)
-            edge = cell_edge(density, sigma_mean, sigma_max, self.dim, weights)
-        else:
-            edge = cell_edge(state.n / state.volume, sigma_mean, sigma_max, self.dim)
+        if edge is None:
+            edge = self._preferred_edge(state, sigma_max)
         if periodic_len.size:  # >= 4 cells on a periodic axis: a pair of cells is then adjacent through one image only
             edge = max(sigma_max, min(edge, float(periodic_len.min()) / 4.0))
         cells = grid_shape(self.box, periodic3, edge, self.n, self.dim)
         return None if np.any(cells[: self.dim][self.periodic] < 4) else cells
+
+    def _preferred_edge(self, state: State, sigma_max: float) -> float:
+        """The cells' edge of ``cell_size``, or of the cost model (:func:`.neighbours.cell_edge`) at the density."""
+        sigma_mean = 2.0 * float(state.radius.mean())
+        if self.options.cell_size is not None:
+            return self.options.cell_size * sigma_max
+        if np.any(self.grav != 0.0):  # a bed under gravity: its dense layers set the cells (at every load)
+            density, weights = local_densities(state.position, self.box[: self.dim], sigma_mean)
+            return cell_edge(density, sigma_mean, sigma_max, self.dim, weights)
+        return cell_edge(state.n / state.volume, sigma_mean, sigma_max, self.dim)
 
     @property
     def _pair_state(self) -> bool:
@@ -464,6 +479,11 @@ class Engine:
         """
         if state.n != self.n or state.dim != self.dim:
             raise StateError("a loaded state must have the same number of particles and dimension")
+        if new and not (np.array_equal(state.box, self.box_user) and np.array_equal(state.periodic, self.periodic)):
+            raise StateError(
+                f"a loaded state must have the simulation's box {self.box_user.tolist()} and periodic axes {self.periodic.tolist()}, "
+                f"got {state.box.tolist()} and {state.periodic.tolist()}: make a new Simulation for another box"
+            )
         self.t_origin = float(state.time)
         self._shear_offset = float(state.shear_offset)
         if self.vibration is not None and new:  # (the engine's own states touch the wall to round-off of the re-based phase)
@@ -472,6 +492,8 @@ class Engine:
         if self.growth is not None:
             self._start_segment()
             self._choose_neighbours(state)  # (the radii have grown: cells of the list grid, skin, capacity)
+        elif new and _radii_key(state.radius) != self._chosen_for:  # (other radii: larger ones need larger cells or lists)
+            self._neighbours_for(state)
         elif self.mode == "cells" and self.options.cell_size is None and np.any(self.grav != 0.0):
             sigma_max, periodic_len, periodic3 = self._grid_ranges(state)  # (a bed settles or lifts: the cells follow its density)
             cells = self._cells(state, sigma_max, periodic_len, periodic3, self._big_split(state, periodic_len, periodic3))
