@@ -317,6 +317,8 @@ def test_bad_input():
         DEMSimulation(still, Hertz(young=1e6, poisson=0.3))
     with pytest.raises(EngineError, match="time step .* too large"):
         DEMSimulation(state, LinearDashpot(k=1e4), dt=0.5).run(until_time=5.0)
+    with pytest.raises(StateError, match="must have the simulation's box"):  # (it ran in the old box)
+        DEMSimulation(state, LinearDashpot(k=1e4)).state = edmd.maxwell_boltzmann(edmd.lattice(32, 0.3), kT=1.0)
     from edmd.files.checkpoint import Checkpoint
 
     with pytest.raises(TypeError, match="checkpoints .* not available for the DEM"):

@@ -47,7 +47,7 @@ from .._core.cells import GF_RSMALL
 from .neighbours import overlap_grid
 from ..physics.contact import ContactModel, Hertz
 from ..physics.friction import Friction
-from .engine import EngineError
+from .engine import EngineError, check_loadable
 from .simulation import Simulation
 from ..state import State, StateError
 
@@ -142,8 +142,7 @@ class DEMEngine:
     def load(self, state: State):
         """(Re)build every array from ``state`` (user order); cumulative integrals are kept, and so
         are the tangential springs of pairs in contact before and after (a State holds no springs)."""
-        if state.n != self.n or state.dim != self.dim:
-            raise StateError("a loaded state must have the same number of particles and dimension")
+        check_loadable(state, self)
         n, d = self.n, self.dim
         self.t = float(state.time)
         self.pos = np.zeros((n, 3))

@@ -62,7 +62,12 @@ class EngineOptions:
             benchmarks/README.md, "Neighbour structure").
         debug: check at every collision that the pair touches and that neither partner
             overlaps any neighbour (relative tolerance ``debug_tolerance``); a violation stops
-            the run with :class:`EngineError`. Slower; for testing.
+            the run with :class:`EngineError`. Slower; for testing. eMD* runs check the touch
+            only, which a contact fails that begins inside the residual overlap of a
+            force-based end (a third particle pushing a pair together again as its contact
+            ends; physics.md §2.2): raise ``debug_tolerance`` to that overlap over the contact
+            distance, ``xi_c = 2 zeta_d e_n v_n / omega_0`` for a dashpot, ``1.5 A e_n v_n`` for
+            viscoelastic Hertz.
         debug_tolerance: relative tolerance of the debug checks.
         cell_size: cell edge of ``"cells"`` mode in units of the largest contact distance
             (>= 1); ``None`` picks it from the density by the cost model of
@@ -116,6 +121,19 @@ def _species(state: State) -> list[tuple[float, float]] | None:
     if kinds.size > PAIR_SPECIES:
         return None
     return [(float(masses[k // radii.size]), float(radii[k % radii.size])) for k in kinds]
+
+
+def check_loadable(state: State, engine, box: bool = True):
+    """Refuse a state to load into ``engine`` (the event engine or the DEM's) that has another number
+    of particles or dimension, or (``box``) another box or other periodic axes: it would run in the
+    engine's box."""
+    if state.n != engine.n or state.dim != engine.dim:
+        raise StateError("a loaded state must have the same number of particles and dimension")
+    if box and not (np.array_equal(state.box, engine.box_user) and np.array_equal(state.periodic, engine.periodic)):
+        raise StateError(
+            f"a loaded state must have the simulation's box {engine.box_user.tolist()} and periodic axes {engine.periodic.tolist()}, "
+            f"got {state.box.tolist()} and {state.periodic.tolist()}: make a new Simulation for another box"
+        )
 
 
 def _radii_key(radius: np.ndarray) -> tuple[float, float, float]:
@@ -477,13 +495,7 @@ class Engine:
         ``new``: a state from outside the engine (not one of its own resyncs or checkpoints),
         checked to be clear of the vibrating wall.
         """
-        if state.n != self.n or state.dim != self.dim:
-            raise StateError("a loaded state must have the same number of particles and dimension")
-        if new and not (np.array_equal(state.box, self.box_user) and np.array_equal(state.periodic, self.periodic)):
-            raise StateError(
-                f"a loaded state must have the simulation's box {self.box_user.tolist()} and periodic axes {self.periodic.tolist()}, "
-                f"got {state.box.tolist()} and {state.periodic.tolist()}: make a new Simulation for another box"
-            )
+        check_loadable(state, self, new)
         self.t_origin = float(state.time)
         self._shear_offset = float(state.shear_offset)
         if self.vibration is not None and new:  # (the engine's own states touch the wall to round-off of the re-based phase)
