@@ -140,15 +140,16 @@ def test_segments_end_after_their_event_count_near_jamming(dim):
 def test_the_reduced_pressure_of_slow_growth_follows_the_equation_of_state(dim):
     """At a slow rate the compressing fluid stays near equilibrium: each segment's Z = PV/(NkT) is the
     hard-sphere equation of state at its packing fraction (Carnahan-Starling in 3D, Henderson in 2D)
-    within 2 %: the mean over ~40 segments has a standard error of 0.3 %, the 2D equation of state is
-    good to ~0.5 % at 0.65, and the fluid lags the growth (measured: 0.1 % in 3D, 1 % in 2D at this rate;
+    within 2 % in 3D, 3 % in 2D: the mean over ~40 segments has a standard error of 0.3 %, the 2D
+    equation of state is good to ~0.5 % at 0.65, and the fluid lags the growth (measured: 0.1 % in
+    3D; in 2D 1.45 % at this rate, standard deviation 0.45 % over 7 starting seeds, 0.979-0.992;
     6 % in 3D at a rate ten times faster)."""
     start = edmd.maxwell_boltzmann(edmd.random_packing(500, 0.1, dim=dim, seed=11), kT=1.0, seed=12)
     lo, hi = (0.3, 0.45) if dim == 3 else (0.4, 0.65)
     run = edmd.compression(start, hi, rate=0.005)
     h = run.history[(run.history["packing_fraction"] > lo)]
     ratio = h["pressure"] / np.array([edmd.analysis.compressibility_factor(eta, dim) for eta in h["packing_fraction"]])
-    assert len(h) > 20 and abs(ratio.mean() - 1.0) < 0.02, (len(h), ratio.mean())
+    assert len(h) > 20 and abs(ratio.mean() - 1.0) < (0.02 if dim == 3 else 0.03), (len(h), ratio.mean())
     assert np.all(np.diff(run.history["packing_fraction"]) > 0) and np.all(np.diff(run.history["collisions"]) >= 0)
 
 
