@@ -6,7 +6,8 @@ address and size, from its object code), then samples the timed part of a case o
 :mod:`bench_paired` with ``perf record`` and prints the functions' shares. ``--annotate NAME``
 also prints the hottest instructions of the function whose name contains NAME, disassembled
 from its loaded code (``objdump``): a sample is credited to the instruction after the one that
-stalls (a load that missed, a division).
+stalls (a load that missed, a division); ``--around K`` prints the K instructions before each of
+the hottest three, to see what they wait for.
 
 Needs ``perf`` (Linux), ``nm`` and ``objdump`` (binutils) and permission to sample one's own process. Run by hand, one core::
 
@@ -73,8 +74,9 @@ def write_perf_map(functions: dict[int, tuple[int, str]]) -> str:
     return path
 
 
-def annotate(data: str, functions: dict[int, tuple[int, str]], name: str, top: int = 24) -> None:
-    """The hottest instructions of the function whose name contains ``name``, with their samples."""
+def annotate(data: str, functions: dict[int, tuple[int, str]], name: str, top: int = 24, around: int = 0) -> None:
+    """The hottest instructions of the function whose name contains ``name``, with their samples
+    (and the ``around`` instructions before the hottest three: what they wait for)."""
     matches = [(a, s, n) for a, (s, n) in functions.items() if name in n and "[" not in n]
     if not matches:
         print(f"no compiled function named like {name!r}")
@@ -96,8 +98,15 @@ def annotate(data: str, functions: dict[int, tuple[int, str]], name: str, top: i
         except ValueError:
             continue
     print(f"\n{full}: {total} samples; hottest instructions (samples, address offset, instruction)")
-    for address, count in sorted(inside.items(), key=lambda x: -x[1])[:top]:
+    ranked = sorted(inside.items(), key=lambda x: -x[1])
+    for address, count in ranked[:top]:
         print(f"{count:7d} {100 * count / max(total, 1):5.1f} %  +{address - base:#07x}  {text.get(address, '?')}")
+    addresses = sorted(text)
+    for address, _ in ranked[:3] if around else ():
+        k = addresses.index(address) if address in text else 0
+        print(f"\nbefore +{address - base:#07x}:")
+        for a in addresses[max(k - around, 0) : k + 1]:
+            print(f"{inside.get(a, 0):7d}  +{a - base:#07x}  {text[a]}")
 
 
 def main():
@@ -112,6 +121,7 @@ def main():
     ap.add_argument("--events", type=float, default=100.0, help="sampled events per particle")
     ap.add_argument("--frequency", type=int, default=4000, help="samples per second")
     ap.add_argument("--annotate", default=None, help="also the hottest instructions of this function (part of its name)")
+    ap.add_argument("--around", type=int, default=0, help="with --annotate: this many instructions before each of the hottest three")
     ap.add_argument("--out", default="perf-edmd.data")
     args = ap.parse_args()
     for tool in ("perf", "nm") + (("objdump",) if args.annotate else ()):
@@ -136,7 +146,7 @@ def main():
     report = subprocess.run(["perf", "report", "-i", args.out, "--stdio", "--no-children", "--sort", "sym", "--percent-limit", "0.5"], capture_output=True, text=True).stdout
     print("\n".join(line for line in report.splitlines() if line.strip() and not line.startswith("#")))
     if args.annotate:
-        annotate(args.out, functions, args.annotate)
+        annotate(args.out, functions, args.annotate, around=args.around)
     sys.stdout.flush()
     os._exit(0)  # (not the interpreter's teardown)
 
