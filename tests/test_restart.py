@@ -1,5 +1,6 @@
 """Checkpoints and restarts: exact round trips, bit-for-bit continuation (also after kill -9), errors."""
 
+import shutil
 import signal
 import subprocess
 import sys
@@ -175,6 +176,46 @@ def test_wall_clock_interval_decides_only_what_is_written(tmp_path):
     assert ck_a.writes == 5 and ck_b.writes == 2  # b: the first point and, at close, the last one
     assert_same_files(tmp_path / "a", tmp_path / "b")
     assert read_checkpoint(tmp_path / "b" / "ck.gsd").time == 2.0
+
+
+def _late_observers(d: Path):
+    """Output that begins after the checkpoint at t = 0.5 (``start``)."""
+    return [Thermo(0.25, path=d / "thermo.csv", start=1.0), Trajectory(d / "traj.gsd", 0.25, start=1.0), Checkpoint(d / "ck.gsd", 0.5)]
+
+
+@pytest.mark.parametrize("cut", [0.7, 1.1], ids=["before the first output", "after it"])
+def test_restart_from_before_the_first_output_is_bit_for_bit(tmp_path, cut):
+    """A checkpoint taken before the output's first time has no rows and no frames yet; the
+    interrupted run may already have written some after it (cut at 1.1), which are dropped."""
+    state = _initial(3, 0.2)
+    for name, until in (("ref", 2.0), ("part", cut)):
+        (tmp_path / name).mkdir()
+        sim = edmd.Simulation(state, e_n=0.9)
+        for o in _late_observers(tmp_path / name):
+            sim.add(o)
+        sim.run(until_time=until)
+        sim.close()
+    part = tmp_path / "part"
+    shutil.copy(part / "ck.gsd", part / "ck0.gsd")  # the point at 0.5 (the run cut at 1.1 wrote one at 1.0)
+    sim = load_checkpoint(part / "ck0.gsd", _late_observers(part))
+    assert sim.time == (0.5 if cut < 1 else 1.0)
+    sim.run(until_time=2.0)
+    sim.close()
+    assert_same_files(tmp_path / "ref", part)
+
+
+def test_a_checkpoint_forces_the_rows_and_frames_it_counts_onto_the_disk(tmp_path, monkeypatch):
+    """A power cut after a checkpoint must not lose frames or rows the checkpoint counts: the
+    observers' files are fsynced before the checkpoint is written (flushing alone leaves them in
+    the page cache)."""
+    synced = []
+    real = edmd.files.atomic._fsync
+    monkeypatch.setattr(edmd.files.atomic, "_fsync", lambda path: synced.append(Path(path).name) or real(path))
+    _run(tmp_path / "a", _initial(2, 0.3), 0.5)
+    points = [k for k, name in enumerate(synced) if name.startswith(".ck.")]
+    assert len(points) == 2  # t = 0 and 0.5
+    for k in points:
+        assert synced[k - 2 : k] == ["thermo.csv", "traj.gsd"]
 
 
 def test_restarted_observers_must_match(tmp_path):

@@ -152,6 +152,18 @@ def test_a_restart_after_max_events_runs_max_events_more(tmp_path):
         assert (out / name).read_bytes() == (ref / name).read_bytes(), name
 
 
+def test_a_thermo_row_cut_by_a_crash_is_written_again_on_restart(tmp_path):
+    # a full disk or a node crash can leave half a row at the end of thermo.csv
+    out, ref = tmp_path / "run", tmp_path / "ref"
+    run_directory(small(until=1.7, interval=0.5, output={"checkpoint_interval": 1.0}), out)
+    text = (out / "thermo.csv").read_bytes()
+    (out / "thermo.csv").write_bytes(text[: text[:-1].rfind(b"\n") + 26])
+    restart_directory(out, until_time=3.0)
+    run_directory(small(until=3.0, interval=0.5, output={"checkpoint_interval": 1.0}), ref)
+    for name in ("thermo.csv", "trajectory.gsd"):
+        assert (out / name).read_bytes() == (ref / name).read_bytes(), name
+
+
 def test_a_foreign_checkpoint_is_refused_and_nothing_changes(tmp_path):
     a, b = tmp_path / "a", tmp_path / "b"
     run_directory(small(until=2.0), a)

@@ -78,3 +78,16 @@ def test_thermo_refuses_a_file_with_other_columns(tmp_path):
     p.write_text(",".join(reversed(RUN_COLUMNS)) + "\n")
     with pytest.raises(ValueError, match="the same columns in another order"):
         _thermo_run(p)
+
+
+def test_read_thermo_leaves_out_a_row_being_written_and_names_a_broken_one(tmp_path):
+    p = tmp_path / "thermo.csv"
+    p.write_text("time,collisions\n0.0,0\n0.5,12\n1.0,2")  # the last row still being written
+    table = read_thermo(p)
+    assert list(table) == ["time", "collisions"] and table["time"].tolist() == [0.0, 0.5] and table["collisions"].tolist() == [0, 12]
+    p.write_text("time,collisions\n0.0,0\n0.5\n1.0,30\n")
+    with pytest.raises(ValueError, match=r"thermo\.csv, line 3: 1 cells where the header names 2 columns"):
+        read_thermo(p)
+    p.write_text("time,collisions\n0.0,zero\n")
+    with pytest.raises(ValueError, match="not a thermo table of numbers"):
+        read_thermo(p)

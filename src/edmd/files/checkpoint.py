@@ -109,6 +109,8 @@ def save_checkpoint(sim: Simulation, path: str | os.PathLike, metadata: dict | N
     engine = sim.engine
     if resync:
         engine.resync(sim.time)
+    for obs in sim.observers:  # (their rows and frames on disk before a checkpoint counts them)
+        obs.sync()
     frame = state_to_frame(sim.state, sim.totals())
     log = frame.log
     observers = []

@@ -14,7 +14,7 @@ import os
 import numpy as np
 
 from ..run.observer import Observer
-from .atomic import write_atomic
+from .atomic import fsync_existing, write_atomic
 
 COLUMNS = ("time", "particle", "wall", "v_n", "v_t")
 
@@ -82,6 +82,9 @@ class WallImpacts(Observer):
         if len(lines) < self.rows + 1 and self.rows:
             raise ValueError(f"{self.path} holds {max(len(lines) - 1, 0)} wall impacts, fewer than the checkpoint's {self.rows}")
         write_atomic(self.path, "".join(lines[: self.rows + 1]) if lines else ",".join(COLUMNS) + "\r\n")
+
+    def sync(self):
+        fsync_existing(self.path)
 
     def close(self):
         self._flush()

@@ -9,7 +9,7 @@ import os
 
 import numpy as np
 
-from .atomic import write_atomic
+from .atomic import fsync_existing, write_atomic
 from .._core.layout import TENSOR_AXES
 from ..run.observer import Observer, Totals
 from ..run.simulation import Simulation
@@ -236,16 +236,20 @@ class Thermo(Observer):
         self._flux = ("energy_flux_x" in columns) if self.rows else None
         self._last = None if data["last"] is None else Totals.from_dict(data["last"])
         self.close()
-        if self.path is not None:
+        if self.path is not None:  # (no rows yet: an empty file, whose header the first row writes)
             buf = io.StringIO(newline="")
-            writer = csv.DictWriter(buf, fieldnames=columns)
-            writer.writeheader()
-            writer.writerows(_csv_row(r) for r in self.rows)
+            if self.rows:
+                writer = csv.DictWriter(buf, fieldnames=columns)
+                writer.writeheader()
+                writer.writerows(_csv_row(r) for r in self.rows)
             write_atomic(self.path, buf.getvalue())
 
     def table(self) -> dict[str, np.ndarray]:
         """The rows as a dict of column arrays."""
         return {c: np.array([r[c] for r in self.rows]) for c in self.columns()}
+
+    def sync(self):
+        fsync_existing(self.path)
 
     def close(self):
         if self._file is not None:
@@ -270,9 +274,28 @@ def _csv_row(row: dict) -> dict:
 
 
 def read_thermo(path: str | os.PathLike) -> dict[str, np.ndarray]:
-    """Read a thermo CSV written by :class:`Thermo` into a dict of column arrays."""
+    """Read a thermo CSV written by :class:`Thermo` into a dict of column arrays.
+
+    A last line without its newline is a row still being written (a running simulation, or one
+    killed mid-write) and is left out; any other row that is not a full row of numbers is an
+    error naming the file and its line.
+    """
     with open(path, newline="") as f:
-        rows = list(csv.DictReader(f))
-    if not rows:
+        text = f.read()
+    lines = text.splitlines(keepends=True)
+    if lines and not lines[-1].endswith(("\n", "\r")):
+        lines.pop()
+    try:
+        table = list(csv.reader(lines))
+    except csv.Error as exc:
+        raise ValueError(f"{path} is not a thermo table: {exc}") from exc
+    if len(table) < 2:
         return {}
-    return {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
+    header = table[0]
+    for k, row in enumerate(table[1:], start=2):
+        if len(row) != len(header):
+            raise ValueError(f"{path}, line {k}: {len(row)} cells where the header names {len(header)} columns")
+    try:
+        return {c: np.array([float(row[m]) for row in table[1:]]) for m, c in enumerate(header)}
+    except ValueError as exc:
+        raise ValueError(f"{path} is not a thermo table of numbers: {exc}") from exc

@@ -23,7 +23,7 @@ import gsd.fl
 import gsd.hoomd
 import numpy as np
 
-from .atomic import atomic_path
+from .atomic import atomic_path, fsync_existing
 from ..run.observer import Observer, Totals
 from ..run.simulation import Simulation
 from ..state import State, StateError
@@ -225,6 +225,8 @@ def truncate_frames(path: str | os.PathLike, frames: int):
     have = frame_count(path)
     if have < frames:
         raise StateError(f"{path} has {have} frames, fewer than the {frames} the checkpoint expects")
+    if not os.path.exists(path):  # (none expected: the first frame is after the checkpoint)
+        return
     # rewritten even when no frame is dropped: a run killed while writing a frame leaves its
     # partial data after the last complete frame, which appending would keep
     with atomic_path(path) as tmp:
@@ -376,6 +378,9 @@ class Trajectory(Observer):
         self.close()
         truncate_frames(self.path, int(data["frames"]))
         self.mode = "a"
+
+    def sync(self):
+        fsync_existing(self.path)
 
     def close(self):
         if self._file is not None:

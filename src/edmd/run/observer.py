@@ -135,6 +135,10 @@ class Observer:
     def observe(self, sim: Simulation, state: State, totals: Totals):  # pragma: no cover - interface
         raise NotImplementedError
 
+    def sync(self):
+        """Force what this observer has appended to its file onto the disk (called before every
+        checkpoint, which counts those rows and frames: a power cut must not lose what it counts)."""
+
     def close(self):
         """Flush and release resources (files)."""
 
