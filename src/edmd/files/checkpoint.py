@@ -17,7 +17,7 @@ bitwise, identical to a run without checkpoints. A wall-clock interval therefore
 has passed since the last write (the first grid point and the final one are always written).
 
 File layout (GSD 5, one frame, double precision): the State as in a trajectory frame
-(:func:`edmd.files.trajectory.state_to_frame`), plus under ``log/checkpoint/``: ``counters``,
+(:func:`edmd.files.trajectory.state_chunks`), plus under ``log/checkpoint/``: ``counters``,
 ``accumulators``, ``list_capacity``, ``fp``/``ip`` (physics parameters, checked on load), the
 JSON document ``meta`` (format version, the names of the entries of ``counters``,
 ``accumulators``, ``fp`` and ``ip`` (``layout``), the Simulation's constructor parameters,
@@ -36,6 +36,7 @@ import os
 import time as _time
 from pathlib import Path
 
+import gsd.fl
 import gsd.hoomd
 import numpy as np
 
@@ -45,7 +46,8 @@ from .atomic import atomic_path
 from ..run.observer import Observer, Totals
 from ..run.simulation import Simulation
 from ..state import State, StateError
-from .trajectory import frame_to_state, state_to_frame
+from .frames import FrameWriter, copy_frames
+from .trajectory import frame_to_state, state_chunks
 
 FORMAT = 2
 #: formats this edmd reads: format 1 stored the engine arrays without names (see :func:`engine_arrays`)
@@ -111,14 +113,13 @@ def save_checkpoint(sim: Simulation, path: str | os.PathLike, metadata: dict | N
         engine.resync(sim.time)
     for obs in sim.observers:  # (their rows and frames on disk before a checkpoint counts them)
         obs.sync()
-    frame = state_to_frame(sim.state, sim.totals())
-    log = frame.log
+    chunks = state_chunks(sim.state, sim.totals())
     observers = []
     for k, obs in enumerate(sim.observers):
         scalars, arrays = _split(obs.checkpoint_data())
         observers.append({"class": type(obs).__name__, "data": scalars})
         for name, arr in arrays.items():
-            log[f"{_PREFIX}observer/{k}/{name}"] = arr
+            chunks[f"log/{_PREFIX}observer/{k}/{name}"] = arr
     meta = {
         "format": FORMAT,
         "layout": {key: list(names) for key, names in L.LAYOUT.items()},
@@ -127,15 +128,15 @@ def save_checkpoint(sim: Simulation, path: str | os.PathLike, metadata: dict | N
         "observers": observers,
         "metadata": metadata or {},
     }
-    log[_PREFIX + "meta"] = np.frombuffer(json.dumps(meta).encode(), np.uint8)
-    log[_PREFIX + "counters"] = engine.cnt.copy()
-    log[_PREFIX + "accumulators"] = engine.acc.copy()
-    log[_PREFIX + "list_capacity"] = np.array([engine.list_capacity], np.int64)
-    log[_PREFIX + "fp"] = engine.fp.copy()
-    log[_PREFIX + "ip"] = engine.ip.copy()
+    chunks[f"log/{_PREFIX}meta"] = np.frombuffer(json.dumps(meta).encode(), np.uint8)
+    chunks[f"log/{_PREFIX}counters"] = engine.cnt.copy()
+    chunks[f"log/{_PREFIX}accumulators"] = engine.acc.copy()
+    chunks[f"log/{_PREFIX}list_capacity"] = np.array([engine.list_capacity], np.int64)
+    chunks[f"log/{_PREFIX}fp"] = engine.fp.copy()
+    chunks[f"log/{_PREFIX}ip"] = engine.ip.copy()
     with atomic_path(path) as tmp:
-        with gsd.hoomd.open(str(tmp), "w", precision="double") as f:
-            f.append(frame)
+        with FrameWriter(tmp) as f:
+            f.append(chunks)
 
 
 def read_checkpoint(path: str | os.PathLike) -> CheckpointData:
@@ -184,15 +185,14 @@ def save_final_state(path: str | os.PathLike, state: State, totals: Totals):
     second frame (atomically). A restart still continues from the checkpoint point (frame 0) and
     recomputes the rest exactly; the final state is :attr:`CheckpointData.final`.
     """
-    with gsd.hoomd.open(str(path), "r") as f:
-        point = f[0]
-    # GSD reads a log entry missing from frame 1 from frame 0: write the pending eMD* fields
+    with gsd.fl.open(str(path), "r") as f:
+        point_pending = f.chunk_exists(0, "log/particles/pending_partner")
+    # GSD reads a chunk missing from frame 1 from frame 0: write the pending eMD* fields
     # whenever the point has them, or the final state would inherit the point's contacts
-    pending = True if "particles/pending_partner" in point.log else None
     with atomic_path(path) as tmp:
-        with gsd.hoomd.open(str(tmp), "w", precision="double") as out:
-            out.append(point)
-            out.append(state_to_frame(state, totals, pending=pending))
+        with FrameWriter(tmp) as out:
+            copy_frames(path, out, 1)
+            out.append(state_chunks(state, totals, pending=True if point_pending else None))
 
 
 def load_checkpoint(path: str | os.PathLike, observers=(), data: CheckpointData | None = None) -> Simulation:
@@ -322,6 +322,7 @@ class Checkpoint(Observer):
     """
 
     priority = 1  # after every other observer due at the same time
+    needs_state = False  # (it resyncs and takes its own)
 
     def __init__(
         self,

@@ -24,9 +24,10 @@ import gsd.hoomd
 import numpy as np
 
 from .atomic import atomic_path, fsync_existing
+from .frames import FrameWriter, copy_frames
 from ..run.observer import Observer, Totals
 from ..run.simulation import Simulation
-from ..state import State, StateError
+from ..state import State, StateError, _is_filled
 
 
 def angmom(state: State) -> np.ndarray:
@@ -52,58 +53,79 @@ def angmom(state: State) -> np.ndarray:
     return p
 
 
-def state_to_frame(state: State, totals: Totals | None = None, pending: bool | None = None) -> gsd.hoomd.Frame:
-    """A GSD frame holding every field of ``state`` (and the counters of ``totals``).
+def _three_columns(a: np.ndarray, d: int) -> np.ndarray:
+    """``(N, d)`` values as GSD's ``(N, 3)``: the array itself in 3D, padded with zeros in 2D."""
+    if d == 3:
+        return a
+    out = np.zeros((len(a), 3), a.dtype)
+    out[:, :d] = a
+    return out
+
+
+def state_chunks(state: State, totals: Totals | None = None, pending: bool | None = None) -> dict:
+    """The GSD chunks of a frame holding every field of ``state`` (and the counters of
+    ``totals``), as functions that make each array when :class:`.frames.FrameWriter` writes it
+    (one particle array at a time).
 
     Pending eMD* contacts go under ``log/particles/pending_*`` when ``pending`` is true (default:
-    when the state has any). GSD reads a missing log entry from frame 0, so a file either has
-    them in every frame or in none: trajectories of eMD* runs pass ``pending=True``.
+    when the state has any). GSD reads a chunk missing from a frame from frame 0, so a file
+    either has them in every frame or in none: trajectories of eMD* runs pass ``pending=True``.
+    Orientations are the schema's default (identity quaternions) and are not written; angular
+    momenta only for spinning particles.
+
+    Example:
+        >>> s = State(position=[[0.0, 0.0]], velocity=[[1.0, 0.0]], radius=0.5, mass=1.0, box=[4.0, 4.0])
+        >>> chunks = state_chunks(s)
+        >>> chunks["particles/velocity"]().tolist(), "particles/angmom" in chunks
+        ([[1.0, 0.0, 0.0]], False)
     """
     n, d = state.n, state.dim
-    f = gsd.hoomd.Frame()
-    f.configuration.dimensions = d
-    f.configuration.step = 0 if totals is None else totals.events
-    box = np.zeros(6, np.float32)  # what GSD stores: the exact box is log/configuration/box
-    box[:d] = state.box  # (no tilt for sheared states: their positions stay in the rectangular box)
-    f.configuration.box = box
-    f.particles.N = n
-    f.particles.position = state.points
-    vel = np.zeros((n, 3))
-    vel[:, :d] = state.velocity
-    f.particles.velocity = vel
-    f.particles.diameter = 2.0 * state.radius
-    f.particles.mass = state.mass.copy()
-    inertia = np.zeros((n, 3))
-    if d == 3:
-        inertia[:] = state.inertia[:, None]
-    else:
-        inertia[:, 2] = state.inertia
-    f.particles.moment_inertia = inertia
-    image = np.zeros((n, 3), np.int32)
-    image[:, :d] = state.image
-    f.particles.image = image
-    orientation = np.zeros((n, 4))
-    orientation[:, 0] = 1.0
-    f.particles.orientation = orientation
-    f.particles.angmom = angmom(state)
-    f.log["time"] = np.array([state.time], np.float64)
-    f.log["configuration/box"] = state.box.astype(np.float64)
-    f.log["configuration/periodic"] = state.periodic.astype(np.uint8)
-    f.log["configuration/shear_offset"] = np.array([state.shear_offset], np.float64)  # (in every frame: GSD defaults)
-    f.log["particles/angular_velocity"] = np.ascontiguousarray(state.angular_velocity, np.float64)  # (a broadcast constant in smooth runs)
-    f.log["particles/radius"] = state.radius.astype(np.float64)
-    f.log["particles/last_collision"] = state.last_collision.astype(np.float64)  # in every frame (GSD defaults)
-    f.log["particles/riding"] = np.ascontiguousarray(state.riding, np.uint8)
+
+    def box():  # what GSD stores: float32 values (the exact box is log/configuration/box; no tilt for sheared states)
+        out = np.zeros(6, np.float32)
+        out[:d] = state.box
+        return out.astype(np.float64)
+
+    def inertia():
+        out = np.zeros((n, 3))
+        if d == 3:
+            out[:] = state.inertia[:, None]
+        else:
+            out[:, 2] = state.inertia
+        return out
+
+    chunks = {
+        "configuration/step": np.array([0 if totals is None else totals.events], np.uint64),
+        "configuration/dimensions": np.array([d], np.uint8),
+        "configuration/box": box,
+        "particles/N": np.array([n], np.uint32),
+        "particles/position": lambda: _three_columns(np.asarray(state.position, np.float64), d),
+        "particles/velocity": lambda: _three_columns(np.asarray(state.velocity, np.float64), d),
+        "particles/diameter": lambda: 2.0 * state.radius,
+        "particles/mass": lambda: np.asarray(state.mass, np.float64),
+        "particles/moment_inertia": inertia,
+        "particles/image": lambda: _three_columns(state.image.astype(np.int32), d),
+        "log/time": np.array([state.time], np.float64),
+        "log/configuration/box": np.asarray(state.box, np.float64),
+        "log/configuration/periodic": state.periodic.astype(np.uint8),
+        "log/configuration/shear_offset": np.array([state.shear_offset], np.float64),
+        "log/particles/angular_velocity": lambda: np.asarray(state.angular_velocity, np.float64),
+        "log/particles/radius": lambda: np.asarray(state.radius, np.float64),
+        "log/particles/last_collision": lambda: np.asarray(state.last_collision, np.float64),
+        "log/particles/riding": lambda: np.asarray(state.riding, np.uint8),
+    }
+    if not _is_filled(state.angular_velocity) or np.any(state.angular_velocity):  # (a run with spins: in every frame)
+        chunks["particles/angmom"] = lambda: angmom(state)
     if state.has_pending if pending is None else pending:
-        f.log["particles/pending_velocity"] = np.ascontiguousarray(state.pending_velocity, np.float64)
-        f.log["particles/pending_until"] = np.asarray(state.pending_until, np.float64)
-        f.log["particles/pending_partner"] = np.asarray(state.pending_partner, np.int64)
+        chunks["log/particles/pending_velocity"] = lambda: np.asarray(state.pending_velocity, np.float64)
+        chunks["log/particles/pending_until"] = lambda: np.asarray(state.pending_until, np.float64)
+        chunks["log/particles/pending_partner"] = lambda: np.asarray(state.pending_partner, np.int64)
     if state.captured_pairs is not None:  # (square-well runs: in every frame, even when empty)
-        f.log["state/captured_pairs"] = state.captured_pairs.ravel().astype(np.int64)
+        chunks["log/state/captured_pairs"] = state.captured_pairs.ravel().astype(np.int64)
     if totals is not None:
-        f.log["events"] = np.array([totals.events], np.int64)
-        f.log["collisions"] = np.array([totals.collisions], np.int64)
-    return f
+        chunks["log/events"] = np.array([totals.events], np.int64)
+        chunks["log/collisions"] = np.array([totals.collisions], np.int64)
+    return chunks
 
 
 def frame_to_state(frame: gsd.hoomd.Frame, check_overlaps: bool = True) -> State:
@@ -219,8 +241,8 @@ def truncate_frames(path: str | os.PathLike, frames: int):
     """Keep only the first ``frames`` frames of a GSD file (rewritten atomically).
 
     Used on restart: frames written after the checkpoint by the interrupted run are dropped. The
-    frames are written again as :class:`Trajectory` wrote them, so the file is byte for byte the
-    one a run that stopped after ``frames`` frames leaves.
+    frames are copied chunk for chunk (:func:`.frames.copy_frames`), so the file is byte for byte
+    the one a run that stopped after ``frames`` frames leaves.
     """
     have = frame_count(path)
     if have < frames:
@@ -230,16 +252,8 @@ def truncate_frames(path: str | os.PathLike, frames: int):
     # rewritten even when no frame is dropped: a run killed while writing a frame leaves its
     # partial data after the last complete frame, which appending would keep
     with atomic_path(path) as tmp:
-        with gsd.hoomd.open(str(path), "r") as src, gsd.hoomd.open(str(tmp), "w", precision="double") as dst:
-            for k in range(frames):
-                _append(dst, src[k])
-
-
-def _append(traj: gsd.hoomd.HOOMDTrajectory, frame: gsd.hoomd.Frame):
-    """Append one frame and flush it: how :class:`Trajectory` writes, so that replaying its
-    frames (:func:`truncate_frames`) gives the same bytes."""
-    traj.append(frame)
-    traj.flush()
+        with FrameWriter(tmp) as dst:
+            copy_frames(path, dst, frames)
 
 
 def read_state(path: str | os.PathLike, frame: int = -1, check_overlaps: bool = True) -> State:
@@ -292,8 +306,8 @@ def frame_size(path: str | os.PathLike, frame: int = -1) -> int | None:
 
 def write_state(path: str | os.PathLike, state: State, totals: Totals | None = None):
     """Write ``state`` as the only frame of a new GSD file."""
-    with gsd.hoomd.open(str(path), "w", precision="double") as traj:
-        traj.append(state_to_frame(state, totals))
+    with FrameWriter(path) as traj:
+        traj.append(state_chunks(state, totals))
 
 
 #: the log entry holding the identity of the run that wrote a trajectory
@@ -364,11 +378,11 @@ class Trajectory(Observer):
                 # frames without a run id (an older edmd): GSD reads a log entry missing from a
                 # frame from frame 0, so new entries in later frames would make the old ones unreadable
                 self.run_id = None
-            self._file = gsd.hoomd.open(self.path, self.mode, precision="double")
-        frame = state_to_frame(state, totals, pending=sim.soft_contacts)
+            self._file = FrameWriter(self.path, self.mode)
+        chunks = state_chunks(state, totals, pending=sim.soft_contacts)
         if self.run_id is not None:
-            frame.log[RUN_ID] = np.frombuffer(self.run_id.encode(), np.uint8)
-        _append(self._file, frame)
+            chunks["log/" + RUN_ID] = np.frombuffer(self.run_id.encode(), np.uint8)
+        self._file.append(chunks)
 
     def checkpoint_data(self) -> dict:
         return {**super().checkpoint_data(), "frames": self.frames}

@@ -95,6 +95,9 @@ class Observer:
     priority = 0
     #: whether :meth:`fire` may change the state (updaters, :mod:`edmd.run.updaters`)
     changes_state = False
+    #: whether :meth:`observe` reads its ``state`` argument (``None`` is passed otherwise: a
+    #: checkpoint takes its own after a resync, and the copy of every particle is not kept for it)
+    needs_state = True
 
     def __init__(self, interval: float, start: float | None = None):
         if not interval > 0 or not math.isfinite(interval):

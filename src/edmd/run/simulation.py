@@ -262,12 +262,17 @@ class Simulation:
     def _fire_due(self):
         due = sorted((o for o in self.observers if o.next_time <= self._time), key=lambda o: o.priority)
         if due:
-            state = self.state
+            # one copy of the state for the observers that read it, dropped after the last of
+            # them (a checkpoint, last, makes its own: two at once would double the peak)
+            last_reader = max((k for k, o in enumerate(due) if o.needs_state), default=-1)
+            state = self.state if last_reader >= 0 else None
             totals = self.totals()
-            for o in due:
+            for k, o in enumerate(due):
+                if k > last_reader:
+                    state = None
                 o.fire(self, state, totals)
                 if o.changes_state:  # the observers after it see the changed system
-                    state = self.state
+                    state = self.state if k < last_reader else None
                     totals = self.totals()
 
     # ------------------------------------------------------------------ running
