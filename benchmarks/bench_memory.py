@@ -21,6 +21,7 @@ import argparse
 import json
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -76,9 +77,15 @@ def measure(n: int, eta: float, mode: str, start: str, events: float) -> dict:
     stage("simulation")
     sim.run(max_events=int(events * n))
     stage("run")
-    snap = sim.state  # what every observer output takes
+    snap = sim.state  # what observers that read the state take
     del snap
     stage("snapshot")
+    with tempfile.TemporaryDirectory() as tmp:  # the outputs of edmd run, due at once
+        for obs in (edmd.Thermo(1e-3, path=f"{tmp}/thermo.csv"), edmd.Trajectory(f"{tmp}/trajectory.gsd", 1e-3), edmd.Checkpoint(f"{tmp}/checkpoint.gsd", 1e-3)):
+            sim.add(obs)
+        sim.run(until_time=sim.time + 1.5e-3)  # (two outputs: a trajectory's later frames differ from its first)
+        sim.close()
+    stage("outputs")
     return {
         "n": n,
         "eta": eta,
@@ -119,7 +126,7 @@ def main(argv=None):
                 print(
                     f"N={n:9d} eta={eta:.2f} [{r['neighbours']:5s}] peak {r['peak_bytes_per_particle']:4.0f} B/particle "
                     f"(state {st['state']['peak']:.0f}, simulation {st['simulation']['peak']:.0f}, run {st['run']['peak']:.0f}, "
-                    f"snapshot {st['snapshot']['peak']:.0f}); "
+                    f"snapshot {st['snapshot']['peak']:.0f}, outputs {st['outputs']['peak']:.0f}); "
                     f"engine {r['engine_bytes_per_particle']:.0f} B/particle; set-up {r['state_seconds']:.1f} + "
                     f"{r['simulation_seconds']:.1f} s",
                     flush=True,
