@@ -2,9 +2,10 @@
 
 A run's peak memory is dominated by per-particle arrays (the State, the engine's rows,
 neighbour lists, the calendar, a snapshot for an observer): about :data:`BYTES_PER_PARTICLE`
-(measured peak resident memory of hard-sphere runs, N = 1e6 and 1e7: 250 bytes per particle in
-cells mode, 350 with lists, ~90 more while an observer takes a snapshot; rough, TC or eMD*
-runs carry their own arrays; ``benchmarks/bench_memory.py``). The cell
+(measured peak resident memory of hard-sphere runs, N = 1e6 and 1e7: 230-250 bytes per particle
+in cells mode, 330-350 with lists; 370-410 and 480-500 while the outputs of ``edmd run`` are
+written, a thermo row, a trajectory frame and a checkpoint; rough, TC or eMD* runs carry their
+own arrays; ``benchmarks/bench_memory.py``). The cell
 grid would add 4 bytes per cell and grows with the box *volume*: at packing fraction 1e-6 a grid
 of one-diameter cells for 1e4 spheres has 5e9 cells. :func:`grid_shape` therefore coarsens the
 cells of dilute systems so that there are at most :data:`MAX_CELLS_PER_PARTICLE` cells per
@@ -22,7 +23,7 @@ import numpy as np
 
 from .._core.cells import grid_shape as _grid_shape
 
-#: peak resident bytes per particle of a run (set-up, event loop, a snapshot; measured, with a margin
+#: peak resident bytes per particle of a run (set-up, event loop, outputs; measured, with a margin
 #: for rough, TC and eMD* arrays)
 BYTES_PER_PARTICLE = 600
 #: bytes of one grid cell (the head of its linked list, int32)
