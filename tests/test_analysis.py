@@ -287,6 +287,8 @@ def test_haff_reference_numbers_w7():
     assert h2.tau0 == pytest.approx(8.769430, rel=2e-6)
     assert h3(h3.tau0) == pytest.approx(0.25)
     assert contact_value(0.1, 3) == pytest.approx(1.303155, abs=1e-6)
+    with pytest.raises(ValueError, match="needs a positive initial temperature kT0, got 0.0"):
+        HaffLaw(e_n=0.9, dim=3, density=0.19, sigma=1.0, kT0=0.0, eta=0.1)
 
 
 def test_haff_law_describes_a_cooling_gas():

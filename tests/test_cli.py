@@ -111,6 +111,18 @@ def test_export_command(tmp_path):
     assert "t = 1" in r.output and (tmp_path / "f.xyz").read_text().startswith("300\n")
     r = runner.invoke(app, ["export", str(tmp_path / "run"), str(tmp_path / "f.txt")])
     assert r.exit_code == 2 and "use a .xyz" in r.output and "Traceback" not in r.output
+    thermo = (tmp_path / "run" / "thermo.csv").read_bytes()  # a run's own file (it was replaced by particle rows)
+    r = runner.invoke(app, ["export", str(tmp_path / "run"), str(tmp_path / "run" / "thermo.csv")])
+    assert r.exit_code == 2 and "thermo.csv exists; use --force" in " ".join(r.output.split())
+    assert (tmp_path / "run" / "thermo.csv").read_bytes() == thermo
+    r = runner.invoke(app, ["export", str(tmp_path / "run"), str(tmp_path / "f.xyz"), "--force"])
+    assert r.exit_code == 0, r.output
+
+
+def test_outputs_into_missing_folders_are_refused_before_any_work(tmp_path):
+    for args in (["init", str(tmp_path / "nodir" / "x.toml")], ["tables", "build", "--model", "dashpot", "--out", str(tmp_path / "nodir" / "t.npz")]):
+        r = runner.invoke(app, args)
+        assert r.exit_code == 2 and "there is no folder" in " ".join(r.output.split()) and "Traceback" not in r.output, r.output
 
 
 def test_default_job_is_a_cooling_granular_gas():

@@ -65,6 +65,7 @@ def test_typo_is_named_with_a_suggestion():
         ({"system": {"dim": 2}, "walls": {"axes": ["z"]}}, "a 2D system has no z axis"),
         ({"system": {"gravity": [0.0, -1.0]}}, "gravity needs 3 components"),
         ({"walls": {"viscoelastic": True}}, "walls.viscoelastic needs"),
+        ({"walls": {"axes": ["z"], "e_n": 0.5, "viscoelastic": True}}, "give either e_n or viscoelastic = true"),  # (e_n was dropped)
         ({"run": {"until_time": "soon"}}, "run.until_time"),
         ({"engine": {"neighbours": "octree"}}, "engine.neighbours"),
         ({"system": {"n": 100, "replicate": [2, 2, 2]}}, "n = 100 is not a multiple of the 8 copies"),

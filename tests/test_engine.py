@@ -343,3 +343,11 @@ def test_a_loaded_state_must_have_the_same_box(dim):
     walled = edmd.random_packing(200, 0.1, dim=dim, seed=1, periodic=[True] * (dim - 1) + [False])
     with pytest.raises(StateError, match="periodic axes"):
         sim.state = edmd.State(position=walled.position, velocity=walled.velocity, radius=walled.radius, mass=walled.mass, box=a.box, periodic=walled.periodic)
+
+
+def test_resyncs_after_every_event_or_two_are_spaced_out():
+    """resync_every * N < 2 was reported as an inelastic collapse (simultaneous events never advanced
+    the clock); resyncs are now at least MIN_RESYNC_EVENTS apart."""
+    sim = edmd.Simulation(edmd.maxwell_boltzmann(edmd.lattice(108, 0.2), 1.0, seed=1), engine={"resync_every": 0.008})
+    sim.run(until_time=2.0)
+    assert sim.time == 2.0 and sim.collisions > 300

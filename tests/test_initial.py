@@ -105,6 +105,7 @@ def test_maxwell_boltzmann(dim):
         ({"kind": "normal", "mean": 1, "std": 0.1, "sd": 1}, "unknown keys"),
         (-1.0, "radius must be positive"),
         (np.full(10, 0.5), "a number or a distribution dict"),  # (was a TypeError from dict())
+        ({"kind": "normal", "mean": 0.5, "std": 0.5}, "normal radii need std <= mean / 3"),  # (16 % were clipped to 1e-3 mean)
     ],
 )
 def test_bad_radius_distributions(spec, match):

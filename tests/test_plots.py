@@ -123,6 +123,18 @@ def test_plot_run_writes_every_figure(tmp_path):
     assert {p.name for p in plot_run(out)} == names
 
 
+def test_a_granular_gas_at_rest_plots_without_haffs_law(tmp_path):
+    """kT = 0: Haff's time scale is infinite (the figures crashed with a ZeroDivisionError)."""
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(
+        "[system]\ndim = 2\nn = 64\npacking_fraction = 0.3\nkT = 0.0\n[collision]\nrule = 'inelastic'\ne_n = 0.9\n"
+        "[run]\nuntil_time = 1.0\noutput_interval = 0.5\nprogress = false\n"
+    )
+    r = CliRunner().invoke(app, ["run", str(cfg), "--out", str(tmp_path / "run")])
+    assert r.exit_code == 0, r.output
+    assert _image_is_not_blank(tmp_path / "run" / "temperature.png")
+
+
 def test_plot_run_errors(tmp_path):
     r = CliRunner().invoke(app, ["plot", str(tmp_path / "missing")])
     assert r.exit_code == 2 and "no run directory" in r.output and "Traceback" not in r.output

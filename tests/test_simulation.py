@@ -87,6 +87,51 @@ def test_bad_parameters(dim):
         Callback(lambda s, t: None, interval=0.0)
 
 
+def _bad_run_arguments(sim):
+    for kw, msg in [({"max_events": -5}, "max_events must be a whole number"), ({"max_events": 2.7}, "max_events must be a whole number"),
+                    ({"wall_time": -1.0}, "wall_time must be"), ({"wall_time": float("nan")}, "wall_time must be")]:
+        with pytest.raises(ValueError, match=msg):
+            sim.run(**kw)
+
+
+def test_bad_run_arguments_and_observers(dim, tmp_path):
+    sim = _sim(dim)
+    _bad_run_arguments(sim)
+    with pytest.raises(TypeError, match="add\\(\\) takes an edmd Observer"):
+        sim.add(5)
+    with pytest.raises(TypeError, match="Simulation needs an edmd.State"):
+        Simulation(np.zeros((4, 3)))
+    sim.add(edmd.Trajectory(tmp_path / "same.gsd", 0.5))
+    with pytest.raises(ValueError, match="same.gsd, which the attached Trajectory writes"):
+        sim.add(edmd.Checkpoint(tmp_path / "same.gsd", 0.5))
+
+
+#: a field of a valid State replaced afterwards, and what the Simulation must say about it
+MUTATIONS = {
+    "NaN velocity": (lambda s: setattr(s, "velocity", np.where(np.arange(s.n)[:, None] == 3, np.nan, s.velocity)), "velocity is not finite .* particle 3"),
+    "negative mass": (lambda s: setattr(s, "mass", -np.ones(s.n)), "mass must be positive: particle 0"),
+    "negative radius": (lambda s: setattr(s, "radius", np.full(s.n, -0.5)), "radius must be positive"),
+    "overlap": (lambda s: setattr(s, "position", np.vstack([s.position[:1], s.position[:1] + 0.01, s.position[2:]])), "particles 0 and 1 overlap"),
+    "outside the box": (lambda s: setattr(s, "position", np.vstack([s.position[:1] + 1000.0, s.position[1:]])), "particle 0 .* lies outside the box"),
+    "wrong shape": (lambda s: setattr(s, "velocity", s.velocity[:5]), "velocity must have shape"),
+}
+
+
+@pytest.mark.parametrize("how", ["constructor", "assignment"])
+@pytest.mark.parametrize("mutation", list(MUTATIONS))
+def test_a_state_changed_after_it_was_made_is_checked(dim, mutation, how):
+    """A NaN velocity ran with T = nan, a negative mass hung the loop, overlaps ran unnoticed."""
+    change, message = MUTATIONS[mutation]
+    state = edmd.maxwell_boltzmann(edmd.lattice(64, 0.2, dim=dim), 1.0, seed=1)
+    sim = Simulation(state) if how == "assignment" else None
+    change(state)
+    with pytest.raises(edmd.StateError, match=message):
+        if sim is None:
+            Simulation(state)
+        else:
+            sim.state = state
+
+
 def _progress_lines(out: str) -> list[tuple[float, int]]:
     """(percent, events) of each plain progress line (stdout is not a terminal under pytest)."""
     lines = [line.split() for line in out.splitlines() if line.startswith("edmd:")]

@@ -91,3 +91,12 @@ def test_read_thermo_leaves_out_a_row_being_written_and_names_a_broken_one(tmp_p
     p.write_text("time,collisions\n0.0,zero\n")
     with pytest.raises(ValueError, match="not a thermo table of numbers"):
         read_thermo(p)
+
+
+def test_thermo_does_not_append_a_second_run_to_the_rows_of_a_first(tmp_path):
+    p = tmp_path / "thermo.csv"
+    _thermo_run(p)
+    before = p.read_bytes()
+    with pytest.raises(ValueError, match=r"thermo\.csv ends at time 1\.0, and this run's rows start at 0\.0: the rows of two runs would mix"):
+        _thermo_run(p)
+    assert p.read_bytes() == before

@@ -52,6 +52,17 @@ def test_corrupt_file_is_a_clear_error(tmp_path):
         read_state(tmp_path / "missing.gsd")
 
 
+def test_a_tilted_box_of_another_program_is_refused(tmp_path):
+    frame = gsd.hoomd.Frame()
+    frame.particles.N = 2
+    frame.particles.position = np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.0]])
+    frame.configuration.box = [10.0, 10.0, 10.0, 0.5, 0.0, 0.0]
+    with gsd.hoomd.open(tmp_path / "tilted.gsd", "w") as f:
+        f.append(frame)
+    with pytest.raises(StateError, match=r"box is tilted \(tilt factors xy, xz, yz = \[0\.5, 0\.0, 0\.0\]\)"):
+        read_state(tmp_path / "tilted.gsd")
+
+
 # ---------------------------------------------------------------------------- HOOMD fields, readers
 def test_angmom_and_orientation_follow_hoomd(tmp_path, dim):
     s = _state(dim)

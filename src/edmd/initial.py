@@ -26,7 +26,7 @@ def radii(n: int, distribution: float | dict, rng: np.random.Generator | None = 
     ``distribution`` is a number (monodisperse) or a dict with ``kind``:
 
     * ``{"kind": "uniform", "min": a, "max": b}``
-    * ``{"kind": "normal", "mean": m, "std": s}`` (truncated at ``mean ± 3 std``, positive)
+    * ``{"kind": "normal", "mean": m, "std": s}`` (truncated at ``mean ± 3 std``; ``std <= mean / 3``)
     * ``{"kind": "lognormal", "mean": m, "std": s}`` (mean and std of the radius itself)
     * ``{"kind": "discrete", "values": [r1, r2, ...], "fractions": [f1, f2, ...]}`` (exact counts)
 
@@ -57,6 +57,11 @@ def radii(n: int, distribution: float | dict, rng: np.random.Generator | None = 
             if not (mean > 0 and std >= 0):
                 raise StateError(f"{kind} radii need mean > 0 and std >= 0, got mean={mean}, std={std}")
             if kind == "normal":
+                if std > mean / 3:  # (the lower clip would pile radii up at 1e-3 mean: not the requested distribution)
+                    raise StateError(
+                        f"normal radii need std <= mean / 3 (truncated at mean +- 3 std, all positive), got mean={mean}, std={std}; "
+                        "use kind = 'lognormal' for wider distributions"
+                    )
                 out = np.clip(rng.normal(mean, std, n), max(mean - 3 * std, 1e-3 * mean), mean + 3 * std)
             else:
                 s2 = math.log(1 + (std / mean) ** 2)

@@ -263,7 +263,9 @@ class State:
         velocity, spin or pending increment that is not finite, a NaN time (or a last collision at
         ``+inf``), a
         radius, mass or moment of inertia that is not positive, a particle outside the box (the
-        checks of a new State but the overlaps)."""
+        checks of a new State but the overlaps), or a field whose shape is not that of the
+        positions' ``(N, d)`` (a field replaced after the State was made)."""
+        self._check_shapes()
         for name in ("position", "velocity", "angular_velocity", "pending_velocity"):
             values = getattr(self, name)
             bad = np.flatnonzero(~np.isfinite(values).reshape(self.n, -1).all(axis=1))
@@ -276,12 +278,23 @@ class State:
                 raise StateError(f"{name} of particle {int(bad[0])} is {float(values[bad[0]])!r}")
         self._check_values()
 
+    def _check_shapes(self):
+        pos = self.position
+        if not isinstance(pos, np.ndarray) or pos.ndim != 2 or pos.shape[1] not in (2, 3) or len(pos) < 1:
+            raise StateError(f"position must be an array of shape (N, 2) or (N, 3), got {np.shape(pos)}")
+        n, d = pos.shape
+        shapes = {"velocity": (n, d), "radius": (n,), "mass": (n,), "inertia": (n,), "image": (n, d), "box": (d,), "periodic": (d,)}
+        shapes.update(angular_velocity=(n, 3) if d == 3 else (n,), last_collision=(n,), riding=(n,), pending_velocity=(n, d), pending_until=(n,), pending_partner=(n,))
+        for name, shape in shapes.items():
+            if np.shape(getattr(self, name)) != shape:
+                raise StateError(f"{name} must have shape {shape} for {n} particles in {d}D, got {np.shape(getattr(self, name))}")
+
     def _check_values(self):
         for name in ("radius", "mass", "inertia"):
             arr = getattr(self, name)
             bad = np.flatnonzero(arr <= 0.0)
             if bad.size:
-                raise StateError(f"{name} must be positive: particle {bad[0]} has {name} {arr[bad[0]]!r}")
+                raise StateError(f"{name} must be positive: particle {int(bad[0])} has {name} {float(arr[bad[0]])!r}")
         if np.any(self.box <= 0.0):
             raise StateError(f"box lengths must be positive, got {self.box.tolist()}")
         big = int(np.argmax(self.radius))

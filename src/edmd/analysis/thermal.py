@@ -222,6 +222,8 @@ class HaffLaw:
                  t0: float = 0.0, eta: float | None = None, chi: float | None = None):  # fmt: skip
         if not 0 <= e_n < 1:
             raise ValueError(f"Haff's law needs 0 <= e_n < 1, got {e_n}")
+        if not (kT0 > 0 and math.isfinite(kT0)):
+            raise ValueError(f"Haff's law needs a positive initial temperature kT0, got {kT0}")
         if chi is None:
             if eta is None:
                 raise ValueError("give the packing fraction eta or the contact value chi")

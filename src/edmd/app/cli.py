@@ -28,6 +28,15 @@ def _warn(message, category, filename, lineno, file=None, line=None):
     err_console.print(f"[bold yellow]warning:[/] {escape(str(message))}", soft_wrap=True)
 
 
+def _check_output(path: Path, force: bool):
+    """Stop (exit 2) before any work if ``path`` cannot be written: its folder is missing, or it
+    exists and ``force`` is not given (a file of the user's, or of a run, is never replaced silently)."""
+    if not path.parent.is_dir():
+        _fail(f"cannot write {path}: there is no folder {path.parent}")
+    if path.exists() and not force:
+        _fail(f"{path} exists; use --force to overwrite it")
+
+
 def _fail(msg: str):
     err_console.print(f"[bold red]error:[/] {escape(msg)}", soft_wrap=True)  # unbroken lines: paths stay greppable
     raise typer.Exit(code=2)
@@ -180,10 +189,12 @@ def export(
     source: Path = typer.Argument(..., help="A GSD file or a run directory (its trajectory.gsd)."),
     output: Path = typer.Argument(..., help="Output file: .xyz (extended XYZ: ASE, OVITO) or .csv."),
     frame: int = typer.Option(-1, "--frame", help="Frame to export (negative counts from the end)."),
+    force: bool = typer.Option(False, "--force", help="Overwrite an existing output file."),
 ):
     """Export one frame as extended XYZ or CSV."""
     from ..files.export import export_frame
 
+    _check_output(output, force)
     try:
         state = export_frame(source, output, frame)
     except (StateError, ValueError, OSError) as exc:
@@ -408,10 +419,13 @@ def movie(
     fps: int = typer.Option(10, "--fps", min=1, help="Frames per second."),
     frames: int = typer.Option(None, "--frames", min=1, help="At most this many frames (every k-th trajectory frame)."),
     max_particles: int = typer.Option(20_000, "--max-particles", min=1, help="Draw at most this many particles (a fixed random subset)."),
+    force: bool = typer.Option(False, "--force", help="Overwrite an existing --out file (the default movie.gif of a run is always replaced)."),
 ):
     """Make a movie of a 2D run or of the z = 0 slab of a 3D run, coloured by speed or local density."""
     from .movie import make_movie
 
+    if out is not None:
+        _check_output(out, force)
     try:
         path = make_movie(source, out, color_by=color, fps=fps, frames=frames, max_particles=max_particles)
     except (StateError, ValueError, OSError) as exc:
@@ -469,8 +483,7 @@ def init(
     force: bool = typer.Option(False, "--force", help="Overwrite an existing file."),
 ):
     """Write a commented example configuration."""
-    if path.exists() and not force:
-        _fail(f"{path} exists; use --force to overwrite")
+    _check_output(path, force)
     path.write_text(EXAMPLE)
     console.print(f"wrote {path}")
 
@@ -531,12 +544,14 @@ def tables_build(
     shape: str = typer.Option("", "--shape", help="Nodes per axis, e.g. '17,41,49' (default: the model's default)."),
     workers: int = typer.Option(0, "--workers", "-j", help="Processes (0: one per core this process may use)."),
     out: Path = typer.Option(None, "--out", "-o", help="Output .npz file (default: restitution_MODEL.npz)."),
-    check: int = typer.Option(2000, "--check", help="Random points to check against the direct solver afterwards (0: skip)."),
+    check: int = typer.Option(2000, "--check", min=0, help="Random points to check against the direct solver afterwards (0: skip)."),
     progress: bool = typer.Option(True, "--progress/--no-progress", help="Show a progress bar."),
+    force: bool = typer.Option(False, "--force", help="Overwrite an existing output file."),
 ):
     """Build a table by direct solves spread over processes, save it and check its accuracy."""
     from ..physics.tables import Box, TableError, build_table, check_table
 
+    _check_output(out or Path(f"restitution_{model}.npz"), force)  # (before the build: it takes minutes)
     try:
         box = Box.parse(ranges, model)
         dims = tuple(int(x) for x in shape.split(",")) if shape else None
@@ -553,7 +568,7 @@ def tables_build(
 @tables_app.command("check")
 def tables_check(
     path: Path = typer.Argument(..., help="A table file (.npz)."),
-    points: int = typer.Option(10_000, "--points", "-n", help="Random points in the box."),
+    points: int = typer.Option(10_000, "--points", "-n", min=1, help="Random points in the box."),
     sampling: str = typer.Option("log", "--sampling", help="Softness sampling: log or linear."),
     seed: int = typer.Option(0, "--seed"),
 ):

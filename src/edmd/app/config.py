@@ -249,6 +249,8 @@ class WallsConfig(_Section):
             raise ValueError(f"axes repeated: {self.axes}")
         if self.beta is not None and self.e_t is not None:
             raise ValueError("give either beta or e_t (= -beta), not both")
+        if self.viscoelastic and self.e_n is not None:
+            raise ValueError("give either e_n or viscoelastic = true (e_n(v) of the collision's material), not both")
         return self
 
     def build(self, material: collide.Viscoelastic | None, soft=None) -> collide.Wall:

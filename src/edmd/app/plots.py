@@ -519,13 +519,13 @@ def _frames(traj: Path, start: int = 0, keep: np.ndarray | None = None):
 def _frame_times(traj: Path) -> np.ndarray:
     """The time of every frame (read without the particle data)."""
     with gsd.fl.open(str(traj), "r") as f:
-        return np.array([float(f.read_chunk(frame=k, name="log/time")[0]) for k in range(f.nframes)])
+        return np.array([float(f.read_chunk(frame=k if f.chunk_exists(k, "log/time") else 0, name="log/time")[0]) for k in range(f.nframes)])
 
 
 def _cooling_law(run: _Run, table):
     """Haff's law (constant e_n) or the viscoelastic t^(-5/3) through the last row; ``None`` for other runs."""
     t, kT = table["time"], table["temperature"]
-    if run.kind == "granular" and run.first is not None:
+    if run.kind == "granular" and run.first is not None and kT[0] > 0:  # (a gas at rest does not cool)
         return HaffLaw.from_state(run.first, run.config.collision.e_n, kT0=float(kT[0]), t0=float(t[0]))
     if run.kind == "viscoelastic" and t[-1] > t[0] and kT[-1] > 0:
         return AlgebraicCooling(t1=float(t[-1]), kT1=float(kT[-1]), t0=float(t[0]))

@@ -197,6 +197,7 @@ class Thermo(Observer):
             new = not os.path.exists(self.path) or os.path.getsize(self.path) == 0
             if not new:
                 _check_header(self.path, list(row))
+                _check_continues(self.path, row["time"])
             self._file = open(self.path, "a", newline="")
             self._writer = csv.DictWriter(self._file, fieldnames=list(row))
             if new:
@@ -266,6 +267,16 @@ def _check_header(path, columns: list[str]):
     old, now = [c for c in have if c not in columns], [c for c in columns if c not in have]
     diff = f"only in the file: {old}; only in this run: {now}" if old or now else "the same columns in another order"
     raise ValueError(f"{path} has the thermo columns {have}; this run writes {columns} ({diff}): remove the file or write to another one")
+
+
+def _check_continues(path, time: float):
+    """Raise ``ValueError`` if the rows of ``path`` reach ``time``: appending would mix two runs."""
+    times = read_thermo(path).get("time")
+    if times is not None and len(times) and not times[-1] < time:
+        raise ValueError(
+            f"{path} ends at time {float(times[-1])!r}, and this run's rows start at {time!r}: the rows of two runs would mix; "
+            "remove the file or write to another one"
+        )
 
 
 def _csv_row(row: dict) -> dict:

@@ -140,6 +140,9 @@ def frame_to_state(frame: gsd.hoomd.Frame, check_overlaps: bool = True) -> State
     if n == 0:
         raise StateError("the GSD frame holds no particles")
     log = frame.log
+    tilt = np.asarray(frame.configuration.box, np.float64)[3:]
+    if np.any(tilt != 0.0):  # (edmd's sheared states keep a rectangular box: log/configuration/shear_offset)
+        raise StateError(f"the GSD frame's box is tilted (tilt factors xy, xz, yz = {tilt.tolist()}): edmd simulates rectangular boxes only")
     box = np.asarray(log.get("configuration/box", np.asarray(frame.configuration.box[:d], np.float64)), np.float64)
     pos = np.asarray(frame.particles.position, np.float64)[:, :d]
     vel = frame.particles.velocity

@@ -373,6 +373,9 @@ class DEMSimulation(Simulation):
         }
         return DEMEngine(state, self.contact, self._step, self._skin, gravity, self.friction)
 
+    #: soft particles: a contact is an overlap (no overlap check of the states it takes)
+    _hard_cores = False
+
     @property
     def dt(self) -> float:
         """The (largest) time step."""

@@ -42,6 +42,12 @@ from ..state import State, StateError, default_inertia, filled, rescale_temperat
 log = logging.getLogger("edmd.compile")
 
 
+#: the fewest events between two maintenance resyncs: a resync re-predicts every particle, and
+#: resyncs after every event or two kept simultaneous events from ever advancing the clock
+#: (reported as an inelastic collapse)
+MIN_RESYNC_EVENTS = 64
+
+
 @dataclasses.dataclass
 class EngineOptions:
     """Tuning knobs of the event engine (all have sensible defaults).
@@ -55,7 +61,8 @@ class EngineOptions:
         skin: list shell thickness in units of the mean diameter (lists only): pairs whose
             list centres are closer than ``sigma_ij + skin`` are neighbours.
         resync_every: events between two maintenance resyncs, per particle (one costs as much
-            as 2-3 events per particle; benchmarks/README.md, "Resyncs").
+            as 2-3 events per particle; benchmarks/README.md, "Resyncs"); at least
+            :data:`MIN_RESYNC_EVENTS` events.
         events_per_bucket: target occupation of a calendar bucket.
         auto_threshold: packing fraction above which ``"auto"`` picks lists; ``None``: the
             measured crossover of :data:`AUTO_THRESHOLD` (0.35 for spheres, 0.6 for disks;
@@ -772,7 +779,7 @@ class Engine:
         Returns the status code of the last loop call (``ST_TIME``, ``ST_EVENTS`` or ``ST_IDLE``).
         """
         budget = max_events
-        interval = max(int(self.options.resync_every * self.n), 1)
+        interval = max(int(self.options.resync_every * self.n), MIN_RESYNC_EVENTS)
         while True:
             if budget <= 0:
                 return L.ST_EVENTS

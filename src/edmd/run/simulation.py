@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import math
+import os
 import sys
 import time as _time
 import warnings
@@ -85,9 +86,14 @@ class Simulation:
         well = _driver(well, SquareWell, "well")
         growth = _driver(growth, Growth, "growth")
         shear = _driver(shear, Shear, "shear")
+        if not isinstance(state, State):
+            raise TypeError(f"Simulation needs an edmd.State, got {type(state).__name__}")
+        state.check()  # (a State's fields may have been changed since it was made)
         self._engine = self._build_engine(state, collision, walls, gravity, (thermostat, forcing, vibration, well, growth, shear), engine)
         #: uniform acceleration (``d`` components)
         self.gravity = self._engine.grav[: state.dim].copy()
+        if self._hard_cores and not state.has_pending:
+            state.check_no_overlap()
         self._time = float(state.time)
         self.observers: list[Observer] = []
         self.wall_seconds = 0.0
@@ -130,7 +136,10 @@ class Simulation:
 
     @state.setter
     def state(self, new: State):
-        if not new.has_pending:  # partners of pending eMD* contacts overlap by design (as in State)
+        if not isinstance(new, State):
+            raise TypeError(f"the state must be an edmd.State, got {type(new).__name__}")
+        new.check()
+        if self._hard_cores and not new.has_pending:  # partners of pending eMD* contacts overlap by design (as in State)
             new.check_no_overlap()
         self._engine.load(new)
         self._time = float(new.time)
@@ -203,6 +212,12 @@ class Simulation:
         return 0.0
 
     @property
+    def _hard_cores(self) -> bool:
+        """Whether particles may not overlap: not with soft contacts (eMD*: residual overlaps of
+        ended contacts; the DEM: contacts are overlaps)."""
+        return not self.soft_contacts
+
+    @property
     def soft_contacts(self) -> bool:
         """Whether pairs may be in a pending eMD* contact (states then carry pending velocities)."""
         return self._engine.emd_rule is not None
@@ -254,7 +269,16 @@ class Simulation:
 
     # ------------------------------------------------------------------ observers
     def add(self, observer: Observer) -> Observer:
-        """Attach an observer; it fires at its exact times during :meth:`run`."""
+        """Attach an observer; it fires at its exact times during :meth:`run`. Two observers may
+        not write the same file (``ValueError``: each would destroy the other's data)."""
+        if not isinstance(observer, Observer):
+            raise TypeError(f"add() takes an edmd Observer (Thermo, Trajectory, Checkpoint, Callback...), got {type(observer).__name__}")
+        path = getattr(observer, "path", None)
+        if path is not None:
+            mine = os.path.abspath(path)
+            clash = next((o for o in self.observers if getattr(o, "path", None) is not None and os.path.abspath(o.path) == mine), None)
+            if clash is not None:
+                raise ValueError(f"{type(observer).__name__} would write {path}, which the attached {type(clash).__name__} writes: give each observer its own file")
         observer.attach(self)
         self.observers.append(observer)
         return observer
@@ -304,6 +328,10 @@ class Simulation:
             raise ValueError("run() needs until_time, max_events, wall_time or until_grown")
         if until_time is not None and (not math.isfinite(until_time) or until_time < self._time):
             raise ValueError(f"until_time must be a finite time >= the current time {self._time}, got {until_time}")
+        if max_events is not None and (isinstance(max_events, bool) or not float(max_events).is_integer() or max_events < 0):
+            raise ValueError(f"max_events must be a whole number >= 0, got {max_events!r}")
+        if wall_time is not None and not wall_time >= 0:
+            raise ValueError(f"wall_time must be a number of seconds >= 0, got {wall_time!r}")
         target = math.inf if until_time is None else float(until_time)
         budget = math.inf if max_events is None else int(max_events)
         deadline = math.inf if wall_time is None else _time.perf_counter() + wall_time
