@@ -297,6 +297,9 @@ def test_compress_writes_a_packing_directory(tmp_path, dim):
     assert (out / "compression.png").exists() and not (out / "contacts.png").exists()
     r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "run"), "--from", str(out / "packing.gsd"), "--no-progress"])
     assert r.exit_code == 0, r.output
+    for command, into, holds in (("compress", "run", "holds a run of `edmd run`"), ("run", "packing", "holds a packing of `edmd compress`")):
+        r = runner.invoke(app, [command, str(cfg), "--out", str(tmp_path / into), "--no-progress", "--force"])  # (--force mixed the two)
+        assert r.exit_code == 2 and holds in " ".join(r.output.split()), r.output
     r = runner.invoke(app, ["compress", str(cfg), "--out", str(out), "--jam", "--no-progress"])
     assert r.exit_code == 2 and "--force" in r.output
     r = runner.invoke(app, ["compress", str(cfg), "--out", str(out), "--jam", "--no-progress", "--force", "--rate", "0.05"])

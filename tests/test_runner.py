@@ -164,6 +164,14 @@ def test_a_thermo_row_cut_by_a_crash_is_written_again_on_restart(tmp_path):
         assert (out / name).read_bytes() == (ref / name).read_bytes(), name
 
 
+def test_walls_that_are_not_those_of_the_state_from_a_file_are_refused(tmp_path):
+    # a fully periodic state with [walls] axes = ["y"] ran periodic, and its config.toml recorded the walls
+    run_directory(small(until=0.5), tmp_path / "a")
+    cfg = small(until=1.0, system={"from_file": str(tmp_path / "a" / "trajectory.gsd")}, walls={"axes": ["y"], "e_n": 0.5})
+    with pytest.raises(ConfigError, match=r"trajectory.gsd has walls on the axes none, but walls.axes = \['y'\]"):
+        run_directory(cfg, tmp_path / "b")
+
+
 def test_a_foreign_checkpoint_is_refused_and_nothing_changes(tmp_path):
     a, b = tmp_path / "a", tmp_path / "b"
     run_directory(small(until=2.0), a)

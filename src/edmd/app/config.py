@@ -295,7 +295,7 @@ class IntegratorConfig(_Section):
 
     kind: Literal["edmd", "dem"] = "edmd"
     dt: float | None = Field(None, gt=0, description="DEM time step (default: shortest contact / steps_per_contact)")
-    steps_per_contact: float = Field(50.0, gt=0, description="DEM steps per shortest contact duration")
+    steps_per_contact: float = Field(50.0, ge=10, description="DEM steps per shortest contact duration (>= 10)")
     impact_speed: float | None = Field(None, gt=0, description="impact speed for the Hertz contact duration (default from the state)")
     skin: float = Field(0.3, gt=0, description="DEM neighbour-list skin, in mean diameters")
 

@@ -18,7 +18,7 @@ from ..files.trajectory import read_state, write_state
 from ..run.compress import HISTORY, Compression, at_radii, compress_film, compression
 from ..state import State
 from .config import Config, ConfigError, dump_config
-from .runner import claim_directory, dilute_fraction, random_start
+from .runner import RUN_FILES, claim_directory, dilute_fraction, random_start, refuse_foreign
 
 #: files ``edmd compress`` writes into its directory
 PACKING_FILES = ("config.toml", "packing.gsd", "compression.csv", "summary.json", "compression.png", "contacts.png")
@@ -126,6 +126,7 @@ def _write_packing(out: Path, cfg: Config, packing: State):
 
 
 def _claim_packing(out: Path, force: bool):
+    refuse_foreign(out, [name for name in RUN_FILES if name not in PACKING_FILES], "a run of `edmd run`", "a packing")
     old = [out / name for name in PACKING_FILES if (out / name).exists()]
     claim_directory(out, old, force, "already holds a packing ({names}): choose another --out or replace it with --force")
 

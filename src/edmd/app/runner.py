@@ -115,6 +115,17 @@ def compressed_start(cfg: Config) -> State:
     return at_radii(compress(start, s.packing_fraction, rate=s.compress_rate, kT=s.kT), start.radius)
 
 
+def _check_walls(cfg: Config, state: State):
+    """The walls of ``[walls]`` must be those of the state (one read from a file keeps its own)."""
+    closed = ["xyz"[k] for k in np.flatnonzero(~state.periodic)]
+    if sorted(closed) != sorted(cfg.walls.axes):
+        source = f"the state of {cfg.system.from_file}" if cfg.system.from_file is not None else "the initial state"
+        raise ConfigError(
+            f"{source} has walls on the axes {closed or 'none'}, but walls.axes = {list(cfg.walls.axes)}: "
+            "a state keeps its box; set walls.axes to its walled axes"
+        )
+
+
 def build_simulation(cfg: Config, state: State | None = None) -> Simulation:
     """A :class:`Simulation` for ``cfg`` (from ``state`` if given, else from ``[system]``).
 
@@ -126,6 +137,7 @@ def build_simulation(cfg: Config, state: State | None = None) -> Simulation:
         state = build_state(cfg)
         if shear is not None and cfg.shear.profile and cfg.system.from_file is None:
             state = shear.with_profile(state)
+    _check_walls(cfg, state)
     if cfg.integrator.kind == "dem":
         from ..run.dem import DEMSimulation
 
@@ -241,8 +253,17 @@ def run_files(out: Path) -> list[Path]:
 def _claim(out: Path, force: bool):
     """Refuse a directory holding another run's files, unless ``force`` (nothing is created then);
     with ``force``, create the directory and remove them all."""
+    refuse_foreign(out, ("packing.gsd", "compression.csv"), "a packing of `edmd compress`", "a run")
     refusal = "already holds a run ({names}): continue it with `edmd run --restart {out}`, choose another --out, or replace it with --force"
     claim_directory(out, run_files(out) if out.is_dir() else [], force, refusal)
+
+
+def refuse_foreign(out: Path, names, holds: str, writes: str):
+    """Refuse ``out`` (even with --force) if it holds any of the files ``names`` of another kind of
+    output (``holds``): replacing only the files of ``writes`` would leave the two mixed."""
+    found = [name for name in names if (out / name).exists()]
+    if found:
+        raise RunDirectoryError(f"{out} holds {holds} ({', '.join(found)}); this command writes {writes}: choose another --out")
 
 
 def claim_directory(out: Path, old: list[Path], force: bool, refusal: str):
