@@ -86,6 +86,9 @@ def test_unreadable_files(tmp_path):
     p.write_text("[system\nn = 3")
     with pytest.raises(ConfigError, match="is not valid TOML"):
         load_config(p)
+    p.write_bytes(b"\x89PNG\r\n\x1a\n\xff\xfe")  # (the message named no file)
+    with pytest.raises(ConfigError, match="broken.toml is not a text file"):
+        load_config(p)
 
 
 def test_polydisperse_config(dim):

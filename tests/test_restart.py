@@ -244,6 +244,12 @@ def test_bad_checkpoints_are_clear_errors(tmp_path):
         load_checkpoint(tmp_path / "a" / "ck.gsd", _observers(tmp_path / "a"))
 
 
+def test_an_atomic_write_into_a_missing_folder_names_the_file_not_its_temporary(tmp_path):
+    with pytest.raises(FileNotFoundError, match=r"cannot write .*nodir/c\.gsd: there is no folder"):
+        with atomic_path(tmp_path / "nodir" / "c.gsd"):
+            pass
+
+
 def test_atomic_write_keeps_the_old_file_on_failure(tmp_path):
     p = tmp_path / "f.txt"
     p.write_text("old")

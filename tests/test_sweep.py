@@ -122,6 +122,7 @@ def test_base_from_a_file(tmp_path):
         ("[base.run]\nuntil_time = 1.0\nreplicas = 2", r"base.run.replicas: 'replicas' is a top-level key: put it before the first \[table\]"),
         ("[grid]\n'system.n' = [1, 2]\nreplicas = 2", r"grid: 'replicas' is a top-level key: put it before the first \[table\]"),
         ("replicas = 0", r"replicas must be a positive integer"),
+        ('replicas = 100000000\n[grid]\n"system.n" = [10, 20]', r"the sweep has 200000000 points .*more than 100000"),  # (it filled the memory)
         ('[base.system]\nn = 20', r"nothing to sweep"),
         ("points = []", r"points is empty"),
         ('[grid]\n"collision.e_n" = [0.9]', r"point 0 \(collision.e_n=0.9\): collision: rule 'elastic' takes no parameters"),
@@ -253,6 +254,10 @@ def test_cli_input_errors(tmp_path):
     assert "did you mean 'collision.e_n'" in fails(str(bad), "--out", str(tmp_path / "x"))
     assert "error: [grid] is empty" in fails(str(_write(tmp_path, "[grid]\n", "empty.toml")))
     assert "scheduler's cluster has its own workers" in fails(str(_write(tmp_path, GRID)), "--scheduler", "tcp://127.0.0.1:1", "--workers", "2")
+    assert "exists and is not a directory" in fails(str(_write(tmp_path, GRID)), "--out", str(bad))  # (a NotADirectoryError traceback)
+    (tmp_path / "run").mkdir()
+    (tmp_path / "run" / "checkpoint.gsd").write_bytes(b"")
+    assert "holds a run of `edmd run` (checkpoint.gsd)" in fails(str(_write(tmp_path, GRID)), "--out", str(tmp_path / "run"))
 
 
 # Last: the in-process dask cluster may leave threads behind, and the pool tests above fork.

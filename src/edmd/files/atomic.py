@@ -7,6 +7,7 @@ a half-written file: :func:`os.replace` is atomic on POSIX and Windows within on
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import threading
 from collections.abc import Iterator
@@ -49,6 +50,8 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
         'complete'
     """
     path = Path(path)
+    if not path.parent.is_dir():  # (the error would name the temporary file)
+        raise FileNotFoundError(errno.ENOENT, f"cannot write {path}: there is no folder {path.parent}")
     tmp = temp_path(path)
     tmp.unlink(missing_ok=True)
     try:

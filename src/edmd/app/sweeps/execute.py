@@ -17,7 +17,7 @@ from typing import Any
 
 from ...cores import usable_cores
 from ..config import parse_config
-from ..runner import run_directory
+from ..runner import RUN_FILES, run_directory
 from .files import CONFIG, ERROR, MANIFEST, POINT, STATUS, SUMMARY, point_dir, read_json, write_atomic, write_json
 from .spec import Point, SweepError, SweepSpec
 from .table import ResultsTable, sweep_summary
@@ -108,8 +108,9 @@ def sweep(
     if executor is not None and workers is not None:
         raise SweepError("workers sizes the default process pool; with an executor, size the executor")
     spec = spec if isinstance(spec, SweepSpec) else SweepSpec.load(spec)
-    points = spec.resolve()
     out = Path(out).resolve()
+    _check_sweep_directory(out)
+    points = spec.resolve()
     _prepare(out, spec, points)
     todo = [p for p in points if (read_json(point_dir(out, p.id) / STATUS) or {}).get("status") != "done"]
     for p in todo:
@@ -153,6 +154,15 @@ def dask_executor(scheduler: str | None = None, workers: int | None = None) -> I
 
 
 # ---------------------------------------------------------------------- steps
+def _check_sweep_directory(out: Path):
+    """A sweep directory is a folder that holds no run of ``edmd run`` (its points are in ``points/``)."""
+    if out.exists() and not out.is_dir():
+        raise SweepError(f"{out} exists and is not a directory: give --out a folder for the sweep")
+    run = [name for name in RUN_FILES if (out / name).exists()]
+    if run:
+        raise SweepError(f"{out} holds a run of `edmd run` ({', '.join(run)}): choose another folder for the sweep")
+
+
 def _prepare(out: Path, spec: SweepSpec, points: list[Point]):
     """Write the manifest and each point's ``point.json``."""
     for p in points:

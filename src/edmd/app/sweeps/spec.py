@@ -36,6 +36,7 @@ import dataclasses
 import difflib
 import hashlib
 import itertools
+import math
 import tomllib
 from pathlib import Path
 from typing import Any, get_args
@@ -45,6 +46,8 @@ import numpy as np
 from ..config import Config, ConfigError, SystemConfig, dump_config, parse_config
 
 TOP_LEVEL = ("base", "grid", "points", "replicas")
+#: the most points one sweep may have (each is a directory and a process; 1e8 replicas filled the memory)
+MAX_POINTS = 100_000
 
 
 class SweepError(ConfigError):
@@ -203,6 +206,9 @@ class SweepSpec:
 
     def expand(self) -> list[RawPoint]:
         """Every point of the sweep, not validated (``points x grid x replicas``, the last varying fastest)."""
+        count = max(len(self.points), 1) * math.prod(len(v) for v in self.grid.values()) * self.replicas
+        if count > MAX_POINTS:
+            raise SweepError(f"the sweep has {count} points (points x grid x replicas), more than {MAX_POINTS}: split it into several sweeps")
         out = []
         for point in self.points or [{}]:
             for combo in itertools.product(*self.grid.values()):
