@@ -14,7 +14,8 @@ from typer.testing import CliRunner
 
 import edmd
 import edmd.app.runner
-from edmd import Thermo, Trajectory
+from edmd import Thermo, Trajectory, read_thermo
+from test_thermo import RUN_COLUMNS
 from edmd.files.atomic import atomic_path
 from edmd.files.checkpoint import Checkpoint, CheckpointError, load_checkpoint, read_checkpoint, save_checkpoint, save_final_state
 from edmd.app.cli import app
@@ -202,6 +203,31 @@ def test_restart_from_before_the_first_output_is_bit_for_bit(tmp_path, cut):
     sim.run(until_time=2.0)
     sim.close()
     assert_same_files(tmp_path / "ref", part)
+
+
+def test_a_thermo_file_appended_to_keeps_its_earlier_rows_across_a_restart(tmp_path):
+    """The checkpoint counts the file's rows instead of saving them (saving the table at every
+    checkpoint made runs quadratic in their rows); a restart cuts the file back to that count, so
+    the rows it held before the run stay (a restart rewrote it from this run's rows alone)."""
+    earlier = ",".join(RUN_COLUMNS) + "\r\n" + ",".join("-1.0" if c == "time" else "0" for c in RUN_COLUMNS) + "\r\n"
+    state = _initial(3, 0.2)
+    for name, until in (("ref", 2.0), ("part", 1.2)):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "thermo.csv").write_text(earlier, newline="")
+        sim = edmd.Simulation(state, e_n=0.9)
+        sim.add(Thermo(0.25, path=tmp_path / name / "thermo.csv"))
+        sim.add(Checkpoint(tmp_path / name / "ck.gsd", 0.5))
+        sim.run(until_time=until)
+        sim.close()
+    part = tmp_path / "part"
+    data = read_checkpoint(part / "ck.gsd")
+    assert not any(k.endswith("/rows") for k in data.arrays) and data.meta["observers"][0]["data"]["file_rows"] == 6
+    sim = load_checkpoint(part / "ck.gsd", [Thermo(0.25, path=part / "thermo.csv"), Checkpoint(part / "ck.gsd", 0.5)])
+    assert [r["time"] for r in sim.observers[0].rows] == [0.0, 0.25, 0.5, 0.75, 1.0]
+    sim.run(until_time=2.0)
+    sim.close()
+    assert (part / "thermo.csv").read_bytes() == (tmp_path / "ref" / "thermo.csv").read_bytes()
+    assert read_thermo(part / "thermo.csv")["time"][:2].tolist() == [-1.0, 0.0]
 
 
 def test_a_checkpoint_forces_the_rows_and_frames_it_counts_onto_the_disk(tmp_path, monkeypatch):

@@ -474,18 +474,28 @@ def _check_identity(out: Path, data: CheckpointData, disk_id: str | None):
         )
     thermo = out / "thermo.csv"
     saved = next((o for o in data.meta["observers"] if o["class"] == "Thermo"), None)
-    rows = data.arrays.get(f"observer/{data.meta['observers'].index(saved)}/rows") if saved else None
-    if rows is None or not thermo.is_file():
+    if saved is None or not thermo.is_file():
         return
+    rows = data.arrays.get(f"observer/{data.meta['observers'].index(saved)}/rows")
     on_disk = read_thermo(thermo)
+    if rows is None:  # (the rows are in the file: its row at the checkpoint must be the saved last one)
+        at, last = saved["data"].get("file_rows", 0) - 1, saved["data"]["last"]
+        for c in ("time", "collisions") if 0 <= at < len(on_disk.get("time", ())) else ():
+            if c not in on_disk or on_disk[c][at] != last[c]:
+                raise _foreign_thermo(thermo, out, c)
+        return
     columns = list(saved["data"]["columns"])
     k = min(len(rows), len(on_disk.get("time", ())))
     for c in ("time", "collisions"):
         if c not in on_disk or not np.array_equal(on_disk[c][:k], rows[:k, columns.index(c)]):
-            raise RunDirectoryError(
-                f"{thermo} does not continue into {out / 'checkpoint.gsd'} (column {c} differs): the files come "
-                "from different runs; restore this run's files, or start a new run"
-            )
+            raise _foreign_thermo(thermo, out, c)
+
+
+def _foreign_thermo(thermo: Path, out: Path, column: str) -> RunDirectoryError:
+    return RunDirectoryError(
+        f"{thermo} does not continue into {out / 'checkpoint.gsd'} (column {column} differs): the files come "
+        "from different runs; restore this run's files, or start a new run"
+    )
 
 
 def restart_directory(out: str | Path, until_time: float | None = None, progress: bool | None = None) -> dict:

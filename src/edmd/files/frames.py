@@ -7,9 +7,10 @@ exist at once, copies each again while writing, and keeps all of frame 0 in memo
 with: at N = 1e6 a trajectory output peaked at ~570 B per particle above the run
 (benchmarks/README.md, "Memory"). Here a frame is a mapping of chunk names to arrays or to
 functions that make them: each is made, written and dropped in turn, and frame 0 is kept as
-one 16-byte digest per chunk (BLAKE2b of its dtype, shape and bytes). A later chunk whose digest
-equals frame 0's is not written (the reader takes frame 0's, which is identical); every other
-one is, log entries included.
+one 16-byte digest per chunk (BLAKE2b of its dtype, shape and bytes; read back from the file at
+the second frame, so one-frame files such as checkpoints never digest). A later chunk whose
+digest equals frame 0's is not written (the reader takes frame 0's, which is identical); every
+other one is, log entries included.
 
 Chunks are written in sorted name order, so copying a file's frames (:func:`copy_frames`, used
 to cut a trajectory back to a checkpoint) gives the same bytes as writing them did.
@@ -59,30 +60,25 @@ class FrameWriter:
     def __init__(self, path: str | os.PathLike, mode: str = "w"):
         self.path = str(path)
         self._file = gsd.fl.open(self.path, mode, application=f"edmd (gsd {gsd.version.version})", schema=SCHEMA, schema_version=SCHEMA_VERSION)
-        self._first: dict[str, bytes] | None = None
-        if self._file.nframes:
-            self._first = {name: _digest(self._file.read_chunk(0, name)) for name in self._file.find_matching_chunk_names("") if self._file.chunk_exists(0, name)}
+        self._first: dict[str, bytes] | None = None  # (frame 0's digests: taken at the second frame, read back)
 
     def __len__(self) -> int:
         return self._file.nframes
 
     def append(self, chunks: Chunks):
         """Write one frame (chunks in sorted name order; each made only when it is written)."""
-        first = self._first is None
-        digests = {}
+        first = self._file.nframes == 0
+        if not first and self._first is None:  # (one-frame files, e.g. checkpoints, never digest)
+            f = self._file
+            self._first = {name: _digest(f.read_chunk(0, name)) for name in f.find_matching_chunk_names("") if f.chunk_exists(0, name)}
         for name in sorted(chunks):
             data = chunks[name]
             data = np.ascontiguousarray(data() if callable(data) else data)
-            digest = _digest(data)
-            if first:
-                digests[name] = digest
-            if first or self._first.get(name) != digest:
+            if first or self._first.get(name) != _digest(data):
                 self._file.write_chunk(name, data)
             del data
         self._file.end_frame()
         self._file.flush()
-        if first:
-            self._first = digests
 
     def close(self):
         self._file.close()

@@ -138,6 +138,8 @@ class Thermo(Observer):
         self._file = None
         self._writer = None
         self._last: Totals | None = None
+        self._table: np.ndarray | None = None  # without a file: the rows as float64, grown by doubling (:meth:`_record`)
+        self._file_rows = 0  # the rows of the file (an appended-to file's included)
         self._tensor: bool | None = None  # False: continuing a table without the pressure tensor
         self._flux: bool | None = None  # ... without the energy flux
 
@@ -189,31 +191,51 @@ class Thermo(Observer):
             row["shear_work"] = totals.shear_work
         self._last = totals
         self.rows.append(row)
-        if self.path is not None:
+        if self.path is None:
+            self._record(row)
+        else:
             self._write(row)
 
     def _write(self, row):
         if self._file is None:
             new = not os.path.exists(self.path) or os.path.getsize(self.path) == 0
+            self._file_rows = 0
             if not new:
                 _check_header(self.path, list(row))
-                _check_continues(self.path, row["time"])
+                self._file_rows = _check_continues(self.path, row["time"])
             self._file = open(self.path, "a", newline="")
             self._writer = csv.DictWriter(self._file, fieldnames=list(row))
             if new:
                 self._writer.writeheader()
         self._writer.writerow(_csv_row(row))
         self._file.flush()
+        self._file_rows += 1
+
+    def _record(self, row: dict):
+        """Add ``row`` to the float64 table that checkpoints save without a file (grown by
+        doubling: a checkpoint after every row would otherwise convert the whole table each time)."""
+        k = len(self.rows) - 1
+        if self._table is None or k >= len(self._table):
+            grown = np.empty((max(16, 2 * k), len(row)))
+            if self._table is not None:
+                grown[:k] = self._table[:k]
+            self._table = grown
+        self._table[k] = [float(v) for v in row.values()]
 
     def checkpoint_data(self) -> dict:
-        """Schedule, the rows (exact float64 table) and the totals of the last row."""
+        """Schedule, the totals of the last row and the rows: with a file, how many rows it holds
+        and how many are this observer's (the file holds them exactly, forced to disk before every
+        checkpoint: saving the table at every checkpoint made runs quadratic in their rows);
+        without one, the rows as an exact float64 table."""
         data = super().checkpoint_data()
         columns = self.columns()
         data["columns"] = columns
         data["integer_columns"] = [c for c in columns if self.rows and isinstance(self.rows[0][c], int)]
         data["last"] = None if self._last is None else self._last.to_dict()
-        if self.rows:
-            data["rows"] = np.array([[float(r[c]) for c in columns] for r in self.rows], np.float64)
+        if self.rows and self.path is not None:
+            data["row_count"], data["file_rows"] = len(self.rows), self._file_rows
+        elif self.rows:
+            data["rows"] = self._table[: len(self.rows)]
         return data
 
     def columns(self) -> list[str]:
@@ -231,19 +253,40 @@ class Thermo(Observer):
                 f"thermo columns {columns} differ from this version's {list(COLUMNS)} (+ wall pressures, pressure tensor, energy flux, "
                 "eMD* counters, energy input, shear work)"
             )
-        table = np.asarray(data.get("rows", np.zeros((0, len(columns)))), np.float64)
-        self.rows = [{c: int(v) if c in ints else float(v) for c, v in zip(columns, r)} for r in table]
+        self.close()
+        if "file_rows" in data:  # (the rows are in the file: cut it back to the checkpoint's)
+            self.rows = self._cut_file(columns, ints, int(data["file_rows"]), int(data["row_count"]))
+        else:
+            table = np.asarray(data.get("rows", np.zeros((0, len(columns)))), np.float64)
+            self.rows = [{c: int(v) if c in ints else float(v) for c, v in zip(columns, r)} for r in table]
+            self._table = table.copy() if len(table) and self.path is None else None
+            if self.path is not None:  # (a checkpoint of an older edmd, or no rows yet: an empty file, whose header the first row writes)
+                buf = io.StringIO(newline="")
+                if self.rows:
+                    writer = csv.DictWriter(buf, fieldnames=columns)
+                    writer.writeheader()
+                    writer.writerows(_csv_row(r) for r in self.rows)
+                write_atomic(self.path, buf.getvalue())
+            self._file_rows = len(self.rows)
         self._tensor = ("pressure_xx" in columns) if self.rows else None
         self._flux = ("energy_flux_x" in columns) if self.rows else None
         self._last = None if data["last"] is None else Totals.from_dict(data["last"])
-        self.close()
-        if self.path is not None:  # (no rows yet: an empty file, whose header the first row writes)
-            buf = io.StringIO(newline="")
-            if self.rows:
-                writer = csv.DictWriter(buf, fieldnames=columns)
-                writer.writeheader()
-                writer.writerows(_csv_row(r) for r in self.rows)
-            write_atomic(self.path, buf.getvalue())
+
+    def _cut_file(self, columns: list[str], ints: set[str], file_rows: int, count: int) -> list[dict]:
+        """Keep the header and the first ``file_rows`` rows of the file (rewritten atomically: rows
+        an interrupted run wrote after the checkpoint, and a row cut mid-write, go); returns the
+        last ``count`` of them, this observer's, as rows."""
+        with open(self.path, newline="") as f:
+            lines = f.read().splitlines(keepends=True)
+        complete = len(lines) - 1 - (1 if lines and not lines[-1].endswith(("\n", "\r")) else 0)
+        if complete < file_rows:
+            raise ValueError(f"{self.path} holds {max(complete, 0)} rows, fewer than the {file_rows} the checkpoint counts")
+        if next(csv.reader(lines[:1]), []) != columns:
+            raise ValueError(f"{self.path} has other columns than the checkpoint's: {columns}")
+        write_atomic(self.path, "".join(lines[: file_rows + 1]))
+        self._file_rows = file_rows
+        rows = csv.reader(lines[file_rows + 1 - count : file_rows + 1])
+        return [{c: int(v) if c in ints else float(v) for c, v in zip(columns, r)} for r in rows]
 
     def table(self) -> dict[str, np.ndarray]:
         """The rows as a dict of column arrays."""
@@ -269,14 +312,16 @@ def _check_header(path, columns: list[str]):
     raise ValueError(f"{path} has the thermo columns {have}; this run writes {columns} ({diff}): remove the file or write to another one")
 
 
-def _check_continues(path, time: float):
-    """Raise ``ValueError`` if the rows of ``path`` reach ``time``: appending would mix two runs."""
-    times = read_thermo(path).get("time")
-    if times is not None and len(times) and not times[-1] < time:
+def _check_continues(path, time: float) -> int:
+    """Raise ``ValueError`` if the rows of ``path`` reach ``time`` (appending would mix two runs);
+    returns how many rows it holds."""
+    times = read_thermo(path).get("time", ())
+    if len(times) and not times[-1] < time:
         raise ValueError(
             f"{path} ends at time {float(times[-1])!r}, and this run's rows start at {time!r}: the rows of two runs would mix; "
             "remove the file or write to another one"
         )
+    return len(times)
 
 
 def _csv_row(row: dict) -> dict:
