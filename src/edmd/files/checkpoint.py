@@ -199,9 +199,10 @@ def load_checkpoint(path: str | os.PathLike, observers=(), data: CheckpointData 
     """A :class:`Simulation` continuing exactly from checkpoint ``path``.
 
     ``observers`` (new, unattached instances configured like the original ones: same classes,
-    intervals and files, in the same order) are attached and restored: a Thermo gets its rows
-    back (its CSV is rewritten from them), a Trajectory file is cut back to the frames it had
-    at the checkpoint, a Checkpoint continues its schedule. ``data``: the file's contents if
+    intervals and files, in the same order) are attached and restored: a Thermo's CSV is cut
+    back to the rows it had at the checkpoint and the Thermo gets its rows back from it (one
+    without a file, from the checkpoint), a Trajectory file is cut back to the frames it had at
+    the checkpoint, a Checkpoint continues its schedule. ``data``: the file's contents if
     already read (:func:`read_checkpoint`).
 
     Example:
