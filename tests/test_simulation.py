@@ -101,6 +101,14 @@ def test_bad_run_arguments_and_observers(dim, tmp_path):
         sim.add(5)
     with pytest.raises(TypeError, match="Simulation needs an edmd.State"):
         Simulation(np.zeros((4, 3)))
+    with pytest.warns(UserWarning, match="walls= has no effect: the state's box is periodic on every axis"):
+        _sim(dim, walls=edmd.collide.Wall(e_n=0.5))
+    with pytest.raises(ValueError, match="observer start must be a finite time"):
+        edmd.Thermo(1.0, start=float("nan"))
+    with pytest.raises(ValueError, match="debug_tolerance must be a number >= 0"):
+        edmd.EngineOptions(debug_tolerance=-1.0)
+    with pytest.raises(ValueError, match="seed must be a non-negative integer, got -1"):
+        edmd.maxwell_boltzmann(sim.state, 1.0, seed=-1)
     sim.add(edmd.Trajectory(tmp_path / "same.gsd", 0.5))
     with pytest.raises(ValueError, match="same.gsd, which the attached Trajectory writes"):
         sim.add(edmd.Checkpoint(tmp_path / "same.gsd", 0.5))

@@ -188,3 +188,8 @@ def test_check_names_a_nan_spin_of_a_trusted_state(dim):
         State.trusted(**fields, angular_velocity=w).check()
     with pytest.raises(StateError, match="last_collision of particle 1 is inf"):
         State.trusted(**{**fields, "last_collision": np.array([0.0, np.inf])}, angular_velocity=np.zeros_like(w)).check()
+
+
+def test_radii_of_another_length_name_the_field():
+    with pytest.raises(StateError, match=r"radius must be one number or 2 numbers \(one per particle\), got shape \(3,\)"):
+        State(position=[[0.0, 0.0], [2.0, 0.0]], velocity=[[0.0, 0.0], [0.0, 0.0]], radius=[0.5, 0.5, 0.5], mass=1.0, box=[5.0, 5.0])

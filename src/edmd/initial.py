@@ -20,6 +20,13 @@ LATTICES = {2: ("hex", "square"), 3: ("fcc", "sc")}
 LATTICE_MAX = {"hex": math.pi / (2 * math.sqrt(3)), "square": math.pi / 4, "fcc": math.pi / (3 * math.sqrt(2)), "sc": math.pi / 6}
 
 
+def _rng(seed) -> np.random.Generator:
+    """numpy's generator for ``seed``, a non-negative integer (``ValueError`` naming it otherwise)."""
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
+    return np.random.default_rng(seed)
+
+
 def radii(n: int, distribution: float | dict, rng: np.random.Generator | None = None) -> np.ndarray:
     """Draw ``n`` radii.
 
@@ -172,7 +179,7 @@ def lattice(
     kind = kind or LATTICES[dim][0]
     if kind not in LATTICES[dim]:
         raise StateError(f"lattice {kind!r} is not a {dim}D lattice; choose from {LATTICES[dim]}")
-    rng = np.random.default_rng(seed)
+    rng = _rng(seed)
     r = radii(n, radius, rng)
     v_particles = float(np.sum(4.0 / 3.0 * np.pi * r**3 if dim == 3 else np.pi * r**2))
     per_cell = {"sc": 1, "fcc": 4, "square": 1, "hex": 2}[kind]
@@ -250,7 +257,7 @@ def random_packing(
     _check_counts(n, dim)
     if method not in ("auto", "insert", "relax"):
         raise StateError(f"method must be 'auto', 'insert' or 'relax', got {method!r}")
-    rng = np.random.default_rng(seed)
+    rng = _rng(seed)
     r = radii(n, radius, rng)
     vol = 4.0 / 3.0 * np.pi * r**3 if dim == 3 else np.pi * r**2
     box = _box_for(float(vol.sum()), packing_fraction, dim, aspect)
@@ -369,7 +376,7 @@ def maxwell_boltzmann(state: State, kT: float, seed: int = 0, spin: bool = False
             "maxwell_boltzmann: a single particle with zero total momentum is at rest, it cannot have a temperature "
             "kT > 0; give it a velocity directly (State(velocity=...)) or use kT = 0"
         )
-    rng = np.random.default_rng(seed)
+    rng = _rng(seed)
     out = state.copy()
     v = rng.normal(size=(state.n, state.dim)) * np.sqrt(kT / state.mass)[:, None]
     v -= (state.mass[:, None] * v).sum(axis=0) / state.mass.sum()

@@ -34,6 +34,14 @@ def _as_float(name, value, shape):
     return arr
 
 
+def _per_particle(name, value, n):
+    """``value``, one number or one per particle, as ``(n,)`` (a ``StateError`` naming ``name`` otherwise)."""
+    arr = np.asarray(value, float)
+    if arr.ndim > 1 or arr.size not in (1, n):
+        raise StateError(f"{name} must be one number or {n} numbers (one per particle), got shape {arr.shape}")
+    return np.broadcast_to(arr.reshape(-1) if arr.ndim else arr, (n,))
+
+
 def filled(value, shape, dtype=np.float64) -> np.ndarray:
     """A read-only ``shape`` array holding ``value`` everywhere, in no memory (a broadcast scalar).
 
@@ -154,8 +162,8 @@ class State:
             raise StateError("a state needs at least one particle")
         self.position = _as_float("position", pos, (n, d))
         self.velocity = _as_float("velocity", self.velocity, (n, d))
-        self.radius = _as_float("radius", np.broadcast_to(np.asarray(self.radius, float), (n,)), (n,))
-        self.mass = _as_float("mass", np.broadcast_to(np.asarray(self.mass, float), (n,)), (n,))
+        self.radius = _as_float("radius", _per_particle("radius", self.radius, n), (n,))
+        self.mass = _as_float("mass", _per_particle("mass", self.mass, n), (n,))
         self.box = _as_float("box", self.box, (d,))
         self.time = float(self.time)
         if not math.isfinite(self.time):
@@ -163,7 +171,7 @@ class State:
         spin_shape = (n, 3) if d == 3 else (n,)
         self.angular_velocity = _field("angular_velocity", self.angular_velocity, 0.0, spin_shape)
         inertia = default_inertia(self.mass, self.radius, d) if self.inertia is None else self.inertia
-        self.inertia = _as_float("inertia", np.broadcast_to(np.asarray(inertia, float), (n,)), (n,))
+        self.inertia = _as_float("inertia", _per_particle("inertia", inertia, n), (n,))
         image = filled(0, (n, d), np.int64) if self.image is None else np.asarray(self.image)
         if image.shape != (n, d) or not np.issubdtype(image.dtype, np.integer):
             raise StateError(f"image must be integers of shape {(n, d)}, got {image.dtype} {image.shape}")
@@ -286,8 +294,9 @@ class State:
         shapes = {"velocity": (n, d), "radius": (n,), "mass": (n,), "inertia": (n,), "image": (n, d), "box": (d,), "periodic": (d,)}
         shapes.update(angular_velocity=(n, 3) if d == 3 else (n,), last_collision=(n,), riding=(n,), pending_velocity=(n, d), pending_until=(n,), pending_partner=(n,))
         for name, shape in shapes.items():
-            if np.shape(getattr(self, name)) != shape:
-                raise StateError(f"{name} must have shape {shape} for {n} particles in {d}D, got {np.shape(getattr(self, name))}")
+            value = getattr(self, name)
+            if value is not None and np.shape(value) != shape:  # (None: a default a trusted State left out)
+                raise StateError(f"{name} must have shape {shape} for {n} particles in {d}D, got {np.shape(value)}")
 
     def _check_values(self):
         for name in ("radius", "mass", "inertia"):

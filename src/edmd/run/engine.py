@@ -100,6 +100,8 @@ class EngineOptions:
             raise ValueError(f"resync_every must be positive, got {self.resync_every}")
         if not self.events_per_bucket > 0:
             raise ValueError(f"events_per_bucket must be positive, got {self.events_per_bucket}")
+        if not (self.debug_tolerance >= 0 and math.isfinite(self.debug_tolerance)):
+            raise ValueError(f"debug_tolerance must be a number >= 0, got {self.debug_tolerance}")
         if self.cell_size is not None and not self.cell_size >= 1.0:
             raise ValueError(f"cell_size must be >= 1 (cells at least one contact distance wide), got {self.cell_size}")
 

@@ -102,6 +102,8 @@ class Observer:
     def __init__(self, interval: float, start: float | None = None):
         if not interval > 0 or not math.isfinite(interval):
             raise ValueError(f"observer interval must be a positive number, got {interval}")
+        if start is not None and not math.isfinite(start):
+            raise ValueError(f"observer start must be a finite time, got {start}")
         self.interval = float(interval)
         self.start = start
         self._k = 0
