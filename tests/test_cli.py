@@ -119,6 +119,11 @@ def test_export_command(tmp_path):
     assert r.exit_code == 0, r.output
 
 
+def test_a_table_shape_that_is_not_numbers_names_the_option(tmp_path):
+    r = runner.invoke(app, ["tables", "build", "--model", "dashpot", "--shape", "a,b,c", "--out", str(tmp_path / "t.npz")])
+    assert r.exit_code == 2 and "--shape must be whole numbers" in " ".join(r.output.split()) and "Traceback" not in r.output, r.output
+
+
 def test_outputs_into_missing_folders_are_refused_before_any_work(tmp_path):
     for args in (["init", str(tmp_path / "nodir" / "x.toml")], ["tables", "build", "--model", "dashpot", "--out", str(tmp_path / "nodir" / "t.npz")]):
         r = runner.invoke(app, args)
@@ -313,7 +318,8 @@ def test_compress_names_bad_targets_and_grows_between_walls(tmp_path):
     cfg = tmp_path / "c.toml"
     cfg.write_text(SMALL.format(dim=3))
     bad = ((["--to", "0.8"], "close packing"), (["--jam", "--pressure", "10"], "not both"), (["--pressure", "0.5"], "above 1"),
-           (["--gap", "1e-6"], "--gap goes with"), (["--frame", "3"], "give --from too"), (["--jam", "--gap", "-1"], "must be positive"), (["--speed", "0.1"], "--speed goes with"), (["--film", "z", "--rate", "0.1"], "its wall moves"))  # fmt: skip
+           (["--gap", "1e-6"], "--gap goes with"), (["--frame", "3"], "give --from too"), (["--jam", "--gap", "-1"], "must be positive"), (["--speed", "0.1"], "--speed goes with"), (["--film", "z", "--rate", "0.1"], "its wall moves"),
+           (["--to", "-0.1"], "must be in (0, 1), got -0.1"))  # fmt: skip
     for args, words in bad:
         r = runner.invoke(app, ["compress", str(cfg), "--out", str(tmp_path / "p"), "--no-progress", *args])
         assert r.exit_code == 2 and words in r.output, (args, r.output)

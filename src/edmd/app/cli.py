@@ -554,7 +554,10 @@ def tables_build(
     _check_output(out or Path(f"restitution_{model}.npz"), force)  # (before the build: it takes minutes)
     try:
         box = Box.parse(ranges, model)
-        dims = tuple(int(x) for x in shape.split(",")) if shape else None
+        try:
+            dims = tuple(int(x) for x in shape.split(",")) if shape else None
+        except ValueError:
+            raise ValueError(f"--shape must be whole numbers of nodes per axis separated by commas, e.g. '17,41,49', got {shape!r}") from None
         tab = build_table(model, box, dims, workers=workers or None, progress=progress)
     except (TableError, ValueError) as exc:
         _fail(str(exc))

@@ -93,6 +93,8 @@ def compress_directory(
         raise ConfigError("a film is squeezed to a packing fraction (--to), not to a pressure")
     if not (gap > 0 and speed > 0):
         raise ConfigError(f"the contact gap and the wall speed must be positive, got {gap!r} and {speed!r}")
+    if packing_fraction is not None and not 0 < packing_fraction < 1:  # (the start's, half of it, was named)
+        raise ConfigError(f"the target packing fraction must be in (0, 1), got {packing_fraction!r}")
     _claim_packing(out, force)
     start = dilute_start(cfg, packing_fraction, film)
     started = time.process_time()
