@@ -150,7 +150,7 @@ def build_simulation(cfg: Config, state: State | None = None) -> Simulation:
         )  # fmt: skip
     options = EngineOptions(**cfg.engine.model_dump())  # (every [engine] key is an option of the same name)
     rule = cfg.collision.build(float(state.mass.mean()), None if cfg.friction is None else cfg.friction.build())
-    walls = cfg.walls.build(cfg.collision.material(), getattr(rule, "contact", None))
+    walls = cfg.walls.build(cfg.collision.material(), getattr(rule, "contact", None)) if cfg.walls.axes else None  # (keys without walls: IgnoredKeyWarning)
     bath = None if cfg.thermostat is None else cfg.thermostat.build()
     kicks = None if cfg.forcing is None else cfg.forcing.build()
     shaker = None if cfg.vibration is None else cfg.vibration.build()

@@ -89,7 +89,7 @@ class Simulation:
         if not isinstance(state, State):
             raise TypeError(f"Simulation needs an edmd.State, got {type(state).__name__}")
         state.check()  # (a State's fields may have been changed since it was made)
-        if walls is not None and np.all(state.periodic):
+        if walls is not None and walls != collide.Wall() and np.all(state.periodic):
             warnings.warn("walls= has no effect: the state's box is periodic on every axis (give the State periodic=[...] with False on the walled axes)", UserWarning, stacklevel=2)
         self._engine = self._build_engine(state, collision, walls, gravity, (thermostat, forcing, vibration, well, growth, shear), engine)
         #: uniform acceleration (``d`` components)
