@@ -6,8 +6,10 @@ core) set the baseline resident memory; then the state is built (``lattice``, ``
 alive, as in a script), and ``--events`` events per particle run. The peak resident set of each
 stage comes from the kernel's high-water mark (reset between stages through
 ``/proc/self/clear_refs``, Linux), so transient copies count; the last stage takes a snapshot
-(``Simulation.state``), as every observer output does. Also reported: the engine's own
-arrays per particle and the wall-clock time of the set-up.
+(``Simulation.state``), as every observer output does, and the outputs of ``edmd run`` fire
+twice (a thermo row, a trajectory frame, a checkpoint). A restart from that checkpoint is
+measured in a fresh process of its own (``restart``). Also reported: the engine's own arrays per
+particle and the wall-clock time of the set-up and of the restart.
 
 Usage::
 
@@ -40,8 +42,8 @@ def _reset_peak() -> None:
     Path("/proc/self/clear_refs").write_text("5")
 
 
-def measure(n: int, eta: float, mode: str, start: str, events: float) -> dict:
-    """One case, in this process (call through :func:`run_case`)."""
+def measure(n: int, eta: float, mode: str, start: str, events: float, folder: str) -> dict:
+    """One case, in this process (call through :func:`run_case`); its outputs go to ``folder``."""
     import gc
 
     import edmd
@@ -80,11 +82,10 @@ def measure(n: int, eta: float, mode: str, start: str, events: float) -> dict:
     snap = sim.state  # what observers that read the state take
     del snap
     stage("snapshot")
-    with tempfile.TemporaryDirectory() as tmp:  # the outputs of edmd run, due at once
-        for obs in (edmd.Thermo(1e-3, path=f"{tmp}/thermo.csv"), edmd.Trajectory(f"{tmp}/trajectory.gsd", 1e-3), edmd.Checkpoint(f"{tmp}/checkpoint.gsd", 1e-3)):
-            sim.add(obs)
-        sim.run(until_time=sim.time + 1.5e-3)  # (two outputs: a trajectory's later frames differ from its first)
-        sim.close()
+    for obs in _outputs(folder):
+        sim.add(obs)  # the outputs of edmd run, due at once
+    sim.run(until_time=sim.time + 1.5e-3)  # (two outputs: a trajectory's later frames differ from its first)
+    sim.close()
     stage("outputs")
     return {
         "n": n,
@@ -100,11 +101,56 @@ def measure(n: int, eta: float, mode: str, start: str, events: float) -> dict:
     }
 
 
-def run_case(n: int, eta: float, mode: str, start: str, events: float) -> dict:
-    """:func:`measure` in a fresh process (a clean baseline and high-water mark)."""
-    code = f"import json, bench_memory as b; print(json.dumps(b.measure({n}, {eta}, {mode!r}, {start!r}, {events})))"
+def _outputs(folder: str) -> list:
+    """The observers of ``edmd run`` (files in ``folder``), due every 1e-3."""
+    import edmd
+
+    return [edmd.Thermo(1e-3, path=f"{folder}/thermo.csv"), edmd.Trajectory(f"{folder}/trajectory.gsd", 1e-3), edmd.Checkpoint(f"{folder}/checkpoint.gsd", 1e-3)]
+
+
+def measure_restart(folder: str, mode: str) -> dict:
+    """Peak memory of a restart from the checkpoint of :func:`measure` in ``folder``
+    (``Simulation.from_checkpoint`` with its outputs), in this process, above the interpreter
+    after a small run and restart of the same kind."""
+    import gc
+
+    import edmd
+
+    with tempfile.TemporaryDirectory() as tmp:
+        warm = edmd.Simulation(edmd.maxwell_boltzmann(edmd.lattice(2000, 0.3), 1.0, seed=2), engine={"neighbours": mode})
+        for obs in _outputs(tmp):
+            warm.add(obs)
+        warm.run(until_time=2.5e-3)
+        warm.close()
+        again = edmd.Simulation.from_checkpoint(f"{tmp}/checkpoint.gsd", _outputs(tmp))
+        again.run(max_events=2000)
+        again.close()
+        del warm, again
+    gc.collect()
+    base = _status("VmRSS")
+    _reset_peak()
+    t0 = time.perf_counter()
+    sim = edmd.Simulation.from_checkpoint(f"{folder}/checkpoint.gsd", _outputs(folder))
+    seconds = time.perf_counter() - t0
+    return {"peak": (_status("VmHWM") - base) / sim.engine.n, "rss": (_status("VmRSS") - base) / sim.engine.n, "seconds": seconds}
+
+
+def _in_process(call: str) -> dict:
+    code = f"import json, bench_memory as b; print(json.dumps(b.{call}))"
     out = subprocess.run([sys.executable, "-c", code], cwd=Path(__file__).parent, capture_output=True, text=True, check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def run_case(n: int, eta: float, mode: str, start: str, events: float) -> dict:
+    """:func:`measure`, then :func:`measure_restart` from its checkpoint, each in a fresh process
+    (a clean baseline and high-water mark)."""
+    with tempfile.TemporaryDirectory() as folder:
+        result = _in_process(f"measure({n}, {eta}, {mode!r}, {start!r}, {events}, {folder!r})")
+        restart = _in_process(f"measure_restart({folder!r}, {mode!r})")
+    result["stages_bytes_per_particle"]["restart"] = {"rss": restart["rss"], "peak": restart["peak"]}
+    result["restart_seconds"] = restart["seconds"]
+    result["peak_bytes_per_particle"] = max(s["peak"] for s in result["stages_bytes_per_particle"].values())
+    return result
 
 
 def main(argv=None):
@@ -126,9 +172,9 @@ def main(argv=None):
                 print(
                     f"N={n:9d} eta={eta:.2f} [{r['neighbours']:5s}] peak {r['peak_bytes_per_particle']:4.0f} B/particle "
                     f"(state {st['state']['peak']:.0f}, simulation {st['simulation']['peak']:.0f}, run {st['run']['peak']:.0f}, "
-                    f"snapshot {st['snapshot']['peak']:.0f}, outputs {st['outputs']['peak']:.0f}); "
+                    f"snapshot {st['snapshot']['peak']:.0f}, outputs {st['outputs']['peak']:.0f}, restart {st['restart']['peak']:.0f}); "
                     f"engine {r['engine_bytes_per_particle']:.0f} B/particle; set-up {r['state_seconds']:.1f} + "
-                    f"{r['simulation_seconds']:.1f} s",
+                    f"{r['simulation_seconds']:.1f} s; restart {r['restart_seconds']:.1f} s",
                     flush=True,
                 )
     write_results(args.out, args, results)

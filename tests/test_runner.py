@@ -128,6 +128,9 @@ def test_the_end_of_a_run_writes_a_final_frame_and_checkpoint(tmp_path, stop):
     ck = read_checkpoint(out / "checkpoint.gsd")
     assert ck.final.time == end and ck.time == summary["checkpoint_time"] == 0.0  # restart point: t = 0
     assert np.array_equal(ck.final.position, read_state(out / "trajectory.gsd").position)
+    assert ck.final_time == end and ck.final_events == summary["events"]
+    lean = read_checkpoint(out / "checkpoint.gsd", final=False)  # (what a restart reads)
+    assert lean.final is None and (lean.final_time, lean.final_events) == (end, ck.final_events)
 
 
 def test_a_run_extended_after_an_off_grid_end_is_the_longer_run(tmp_path):

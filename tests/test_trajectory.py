@@ -1,5 +1,7 @@
 """GSD files: exact round trip of every field, frame contents, readers."""
 
+import tracemalloc
+
 import gsd.fl
 import gsd.hoomd
 import numpy as np
@@ -211,3 +213,62 @@ def test_writing_frames_is_silent(tmp_path, caplog, dim):
     with caplog.at_level("WARNING"):
         sim.run(until_time=1.0)
     assert not [r for r in caplog.records if "copy" in r.getMessage()]
+
+
+# ---------------------------------------------------------------------------- reading chunk by chunk
+def _hoomd_file(path, dim):
+    """Two frames as another program writes them (single precision, no edmd log); frame 1 has no
+    velocities (read from frame 0) and frame 2 other particles and no masses (the defaults)."""
+    rng = np.random.default_rng(3)
+    frames = []
+    for n in (4, 4, 3):
+        f = gsd.hoomd.Frame()
+        f.configuration.box = [20.0, 20.0, 20.0 if dim == 3 else 0.0, 0.0, 0.0, 0.0]
+        f.configuration.dimensions = dim
+        f.particles.N = n
+        pos = np.zeros((n, 3), np.float32)
+        pos[:, :dim] = 3.0 * np.arange(n)[:, None] - 4.0
+        f.particles.position = pos
+        frames.append(f)
+    frames[0].particles.velocity = np.pad(rng.normal(size=(4, dim)), ((0, 0), (0, 3 - dim))).astype(np.float32)
+    frames[0].particles.mass = np.array([1.0, 2.0, 3.0, 4.0], np.float32)
+    frames[0].particles.diameter = np.array([1.0, 1.5, 0.5, 1.0], np.float32)
+    with gsd.hoomd.open(path, "w") as out:
+        for f in frames:
+            out.append(f)
+
+
+def test_a_file_of_another_program_reads_as_gsd_hoomd_reads_its_frames(tmp_path, dim):
+    _hoomd_file(tmp_path / "h.gsd", dim)
+    with gsd.hoomd.open(tmp_path / "h.gsd") as f:
+        expected = [edmd.files.trajectory.frame_to_state(fr) for fr in f]
+    got = list(iter_states(tmp_path / "h.gsd"))
+    assert [s.n for s in got] == [4, 4, 3]
+    assert np.array_equal(got[1].velocity, got[0].velocity) and np.any(got[1].velocity)  # (frame 0's)
+    assert np.array_equal(got[2].mass, np.ones(3)) and np.array_equal(got[2].radius, np.full(3, 0.5))  # (defaults: frame 0 has 4)
+    for a, b in zip(got, expected):
+        for field in ("position", "velocity", "radius", "mass", "box", "angular_velocity", "inertia", "image", "periodic", "last_collision"):
+            assert np.array_equal(getattr(a, field), getattr(b, field)), field
+
+
+def _traced_peak(fn):
+    """Peak bytes numpy and Python allocate while ``fn`` runs (``tracemalloc``) and its result."""
+    tracemalloc.start()
+    try:
+        out = fn()
+        return tracemalloc.get_traced_memory()[1], out
+    finally:
+        tracemalloc.stop()
+
+
+def test_reading_a_state_holds_no_frame_beside_it(tmp_path):
+    """A frame is read a chunk at a time (gsd.hoomd built every chunk of the schema at once,
+    defaults filled, and deep-copied frame 0: 586 B per particle for a State of 96). What is
+    left: the chunks read and the State's checked copies of them (2 x 96), and the overlap check."""
+    s = edmd.maxwell_boltzmann(edmd.lattice(8000, 0.3), 1.0, seed=1)
+    s.image = np.ones((s.n, 3), np.int64)
+    write_state(tmp_path / "s.gsd", s)
+    own = sum(getattr(s, f).nbytes for f in ("position", "velocity", "radius", "mass", "inertia", "image"))
+    peak, r = _traced_peak(lambda: read_state(tmp_path / "s.gsd"))
+    assert np.array_equal(r.image, s.image) and r.last_collision.strides == (0,)  # (defaults stay constants)
+    assert peak <= 3 * own, f"reading took {peak / s.n:.0f} B per particle for a State of {own / s.n:.0f}"

@@ -519,7 +519,7 @@ def restart_directory(out: str | Path, until_time: float | None = None, progress
         if not path.is_file() and disk_cfg is not None and (disk_cfg.integrator.kind == "dem" or not disk_cfg.output.checkpoint):
             why = "DEM runs write no checkpoint" if disk_cfg.integrator.kind == "dem" else "it ran with [output] checkpoint = false"
             raise CheckpointError(f"{out} cannot be continued: {why}; start a new run from its last frame with `edmd run CONFIG --from {out / 'trajectory.gsd'}`")
-        data = read_checkpoint(path)
+        data = read_checkpoint(path, final=False)
         cfg = _stored_config(path, data.metadata.get("config"))
         _check_identity(out, data, disk_id)
         changes = {} if disk_cfg is None else config_changes(cfg, disk_cfg)
@@ -540,7 +540,7 @@ def restart_directory(out: str | Path, until_time: float | None = None, progress
             set_key(cfg, "run.until_time", until_time)
         _check_end(cfg.run.until_time, data, "--until-time" if until_time is not None else "run.until_time =")
         run_id = data.metadata.get("run_id") or disk_id or run_identity(cfg, data.state)
-        sim = load_checkpoint(path, make_observers(cfg, out, run_id), data=data)
+        sim = load_checkpoint(path, make_observers(cfg, out, run_id), data=data, take_state=True)
         notes = [f"continued at t = {data.time!r}: {k} {a!r} -> {b!r}" for k, (a, b) in changes.items()]
         previous = _previous_notes(out / "config.toml")
         write_atomic(out / "config.toml", config_text(cfg, run_id, previous + notes))
@@ -552,7 +552,7 @@ def restart_directory(out: str | Path, until_time: float | None = None, progress
 def _check_end(end: float, data: CheckpointData, what: str):
     """Refuse a restart to ``end`` if the run already got there (nothing to do) or beyond (the
     restart would drop the frames, rows and final state it wrote after ``end``)."""
-    reached = data.time if data.final is None else data.final.time
+    reached = data.time if data.final_time is None else data.final_time
     if end < reached:
         raise ConfigError(
             f"{what} {end!r} is before t = {reached!r}, where the run already ended: the restart would drop "

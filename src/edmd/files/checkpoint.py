@@ -37,17 +37,17 @@ import time as _time
 from pathlib import Path
 
 import gsd.fl
-import gsd.hoomd
 import numpy as np
 
 from .._core import layout as L
 from .._core.contact import MODEL_HERTZ
 from .atomic import atomic_path
 from ..run.observer import Observer, Totals
+from ..run.engine import Saved
 from ..run.simulation import Simulation
 from ..state import State, StateError
-from .frames import FrameWriter, copy_frames
-from .trajectory import frame_to_state, state_chunks
+from .frames import FrameReader, FrameWriter, copy_frames
+from .trajectory import read_frame, state_chunks
 
 FORMAT = 2
 #: formats this edmd reads: format 1 stored the engine arrays without names (see :func:`engine_arrays`)
@@ -69,7 +69,9 @@ class CheckpointData:
         arrays: the engine's and observers' arrays by name (``counters``, ``accumulators``...).
         final: the state where the run ended, if it ended after the checkpoint point (``edmd
             run`` always saves its end); a restart continues from ``state`` all the same.
-        final_events: the event count at ``final`` (``None`` without it).
+            ``None`` also when not read (``read_checkpoint(..., final=False)``).
+        final_events: the event count at the run's end (``None`` if the file has no final state).
+        final_time: the time of the run's end (``None`` if the file has no final state).
     """
 
     state: State
@@ -77,6 +79,7 @@ class CheckpointData:
     arrays: dict[str, np.ndarray]
     final: State | None = None
     final_events: int | None = None
+    final_time: float | None = None
 
     @property
     def time(self) -> float:
@@ -139,45 +142,62 @@ def save_checkpoint(sim: Simulation, path: str | os.PathLike, metadata: dict | N
             f.append(chunks)
 
 
-def read_checkpoint(path: str | os.PathLike) -> CheckpointData:
-    """Read a checkpoint file; :class:`CheckpointError` says what is wrong with a bad one."""
+def read_checkpoint(path: str | os.PathLike, final: bool = True) -> CheckpointData:
+    """Read a checkpoint file; :class:`CheckpointError` says what is wrong with a bad one.
+
+    ``final=False`` leaves the final state unread (its time and event count are read): a
+    restart does not need a second copy of the particles.
+    """
     path = Path(path)
     if not path.is_file():
         raise CheckpointError(f"no checkpoint file at {path}")
     try:
-        with gsd.hoomd.open(str(path), "r") as f:
+        with FrameReader(path) as f:
             if len(f) not in (1, 2):
                 raise CheckpointError(f"{path} holds {len(f)} frames; a checkpoint holds one (and the final state)")
-            frame = f[0]
-            final_frame = f[1] if len(f) == 2 else None
+            logged = {name: f.chunk(0, name) for name in f.names(f"log/{_PREFIX}")}
+            missing = [k for k in ("meta", "counters", "accumulators", "list_capacity", "fp", "ip") if f"log/{_PREFIX}{k}" not in logged]
+            if missing:
+                raise CheckpointError(f"{path} is a GSD file but not an edmd checkpoint (missing {', '.join(missing)})")
+            meta = _meta(path, logged.pop(f"log/{_PREFIX}meta"))
+            soft = meta.get("params", {}).get("collision", {}).get("type") == "EMDStar"  # pairs overlap after contacts
+            arrays = {k[len(_PREFIX) + 4 :]: v for k, v in logged.items()}
+            state = _checkpoint_state(path, f, 0, soft, "")
+            ended = len(f) == 2
+            end_state = _checkpoint_state(path, f, 1, soft, " final") if ended and final else None
+            end_events, end_time = (f.chunk(1, "log/events"), f.chunk(1, "log/time")) if ended else (None, None)
     except (OSError, RuntimeError, ValueError, KeyError) as exc:
         if isinstance(exc, CheckpointError):
             raise
         raise CheckpointError(f"{path} is not a readable checkpoint (corrupt or not a GSD file): {exc}") from None
-    log = frame.log
-    missing = [k for k in ("meta", "counters", "accumulators", "list_capacity", "fp", "ip") if _PREFIX + k not in log]
-    if missing:
-        raise CheckpointError(f"{path} is a GSD file but not an edmd checkpoint (missing {', '.join(missing)})")
+    return CheckpointData(
+        state=state,
+        meta=meta,
+        arrays=arrays,
+        final=end_state,
+        final_events=None if end_events is None else int(end_events[0]),
+        final_time=None if end_time is None else float(end_time[0]),
+    )
+
+
+def _meta(path, raw: np.ndarray) -> dict:
+    """The JSON document of a checkpoint, checked to be of a format this edmd reads."""
     try:
-        meta = json.loads(bytes(np.asarray(log[_PREFIX + "meta"], np.uint8)).decode())
+        meta = json.loads(bytes(np.asarray(raw, np.uint8)).decode())
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise CheckpointError(f"{path}: damaged checkpoint metadata ({exc})") from None
-    if meta.get("format") not in READABLE_FORMATS:
-        raise CheckpointError(
-            f"{path} has checkpoint format {meta.get('format')!r}; this edmd reads formats {', '.join(map(str, READABLE_FORMATS))}"
-        )
+    if not isinstance(meta, dict) or meta.get("format") not in READABLE_FORMATS:
+        got = meta.get("format") if isinstance(meta, dict) else None
+        raise CheckpointError(f"{path} has checkpoint format {got!r}; this edmd reads formats {', '.join(map(str, READABLE_FORMATS))}")
+    return meta
+
+
+def _checkpoint_state(path, reader: FrameReader, frame: int, soft: bool, which: str) -> State:
+    """The State of a checkpoint's frame (soft contacts may overlap), its problems named."""
     try:
-        soft = meta.get("params", {}).get("collision", {}).get("type") == "EMDStar"  # pairs overlap after contacts
-        state = frame_to_state(frame, check_overlaps=not soft)
+        return read_frame(reader, frame, check_overlaps=not soft)
     except StateError as exc:
-        raise CheckpointError(f"{path}: the saved state is invalid: {exc}") from None
-    arrays = {k[len(_PREFIX) :]: np.asarray(v) for k, v in log.items() if k.startswith(_PREFIX) and k != _PREFIX + "meta"}
-    try:
-        final = None if final_frame is None else frame_to_state(final_frame, check_overlaps=not soft)
-    except StateError as exc:
-        raise CheckpointError(f"{path}: the saved final state is invalid: {exc}") from None
-    final_events = int(final_frame.log["events"][0]) if final_frame is not None and "events" in final_frame.log else None
-    return CheckpointData(state=state, meta=meta, arrays=arrays, final=final, final_events=final_events)
+        raise CheckpointError(f"{path}: the saved{which} state is invalid: {exc}") from None
 
 
 def save_final_state(path: str | os.PathLike, state: State, totals: Totals):
@@ -195,7 +215,7 @@ def save_final_state(path: str | os.PathLike, state: State, totals: Totals):
             out.append(state_chunks(state, totals, pending=True if point_pending else None))
 
 
-def load_checkpoint(path: str | os.PathLike, observers=(), data: CheckpointData | None = None) -> Simulation:
+def load_checkpoint(path: str | os.PathLike, observers=(), data: CheckpointData | None = None, take_state: bool = False) -> Simulation:
     """A :class:`Simulation` continuing exactly from checkpoint ``path``.
 
     ``observers`` (new, unattached instances configured like the original ones: same classes,
@@ -203,7 +223,9 @@ def load_checkpoint(path: str | os.PathLike, observers=(), data: CheckpointData 
     back to the rows it had at the checkpoint and the Thermo gets its rows back from it (one
     without a file, from the checkpoint), a Trajectory file is cut back to the frames it had at
     the checkpoint, a Checkpoint continues its schedule. ``data``: the file's contents if
-    already read (:func:`read_checkpoint`).
+    already read (:func:`read_checkpoint`). ``take_state``: hand ``data.state`` over to the
+    Simulation (its positions, velocities and images are dropped as the engine takes them, so
+    a restart holds one copy of the particles); always so for a file read here.
 
     Example:
         >>> import edmd, tempfile, os
@@ -215,13 +237,14 @@ def load_checkpoint(path: str | os.PathLike, observers=(), data: CheckpointData 
         >>> again.time, again.collisions == sim.collisions
         (2.0, True)
     """
-    data = read_checkpoint(path) if data is None else data
+    take_state = take_state or data is None
+    data = read_checkpoint(path, final=False) if data is None else data
+    a = engine_arrays(data, path)
+    saved = Saved(a["counters"], a["accumulators"], int(data.arrays["list_capacity"][0]), take_state)
     try:
-        sim = Simulation(data.state, **data.meta["params"])
+        sim = Simulation(data.state, **data.meta["params"], _saved=saved)
     except (TypeError, ValueError) as exc:
         raise CheckpointError(f"{path}: cannot rebuild the simulation from the saved parameters: {exc}") from None
-    a = engine_arrays(data, path)
-    sim.restore(data.state, a["counters"], a["accumulators"], int(data.arrays["list_capacity"][0]))
     for name, names in (("fp", L.FPARAMS), ("ip", L.IPARAMS)):
         differ = [n for n, new, old in zip(names, getattr(sim.engine, name), a[name]) if not new == old and n not in L.OUTPUT_PARAMS]
         if differ:

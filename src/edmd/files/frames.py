@@ -14,6 +14,11 @@ other one is, log entries included.
 
 Chunks are written in sorted name order, so copying a file's frames (:func:`copy_frames`, used
 to cut a trajectory back to a checkpoint) gives the same bytes as writing them did.
+
+Reading is chunk by chunk too (:class:`FrameReader`): ``gsd.hoomd`` reads every chunk of a frame
+at once, fills the schema's defaults for every particle (orientations, type ids, charges,
+bodies...) and keeps a deep copy of frame 0; restarting a run of 1e6 spheres from a checkpoint
+so peaked at 584 B per particle while reading the file.
 """
 
 from __future__ import annotations
@@ -84,6 +89,65 @@ class FrameWriter:
         self._file.close()
 
     def __enter__(self) -> FrameWriter:
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+class FrameReader:
+    """Read the chunks of a GSD file one at a time, as ``gsd.hoomd`` reads them: a chunk missing
+    from a frame is frame 0's (a per-particle chunk only when frame 0 has as many particles).
+
+    Frame indices may be negative (counted from the end).
+
+    Example:
+        >>> import numpy as np, tempfile, os
+        >>> p = os.path.join(tempfile.mkdtemp(), "f.gsd")
+        >>> with FrameWriter(p) as w:
+        ...     for t in (0.0, 1.0):
+        ...         w.append({"particles/N": np.array([2], np.uint32), "log/time": np.array([t]), "log/radius": np.array([0.5, 0.5])})
+        >>> with FrameReader(p) as r:
+        ...     len(r), r.chunk(-1, "log/time").tolist(), r.chunk(1, "log/radius").tolist(), r.chunk(1, "particles/mass")
+        (2, [1.0], [0.5, 0.5], None)
+    """
+
+    def __init__(self, path: str | os.PathLike):
+        self._file = gsd.fl.open(str(path), "r")
+
+    def __len__(self) -> int:
+        return self._file.nframes
+
+    def _index(self, frame: int) -> int:
+        return range(self._file.nframes)[frame]  # (IndexError outside the file)
+
+    def count(self, frame: int, group: str = "particles") -> int:
+        """``group/N`` of ``frame`` (frame 0's if the frame has none; 0 if neither has one)."""
+        f, frame = self._file, self._index(frame)
+        for k in (frame, 0):
+            if f.chunk_exists(k, f"{group}/N"):
+                return int(f.read_chunk(k, f"{group}/N")[0])
+        return 0
+
+    def chunk(self, frame: int, name: str) -> np.ndarray | None:
+        """Chunk ``name`` of ``frame`` (``None``: neither the frame nor frame 0 has it)."""
+        f, frame = self._file, self._index(frame)
+        if f.chunk_exists(frame, name):
+            return f.read_chunk(frame, name)
+        group = name.split("/", 1)[0]
+        per_particle = group in ("particles", "bonds", "angles", "dihedrals", "impropers", "constraints", "pairs") and not name.endswith("/N")
+        if frame != 0 and f.chunk_exists(0, name) and (not per_particle or self.count(frame, group) == self.count(0, group)):
+            return f.read_chunk(0, name)
+        return None
+
+    def names(self, prefix: str) -> list[str]:
+        """The names of the file's chunks that start with ``prefix``, sorted."""
+        return sorted(self._file.find_matching_chunk_names(prefix))
+
+    def close(self):
+        self._file.close()
+
+    def __enter__(self) -> FrameReader:
         return self
 
     def __exit__(self, *exc):

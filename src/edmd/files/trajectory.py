@@ -24,7 +24,7 @@ import gsd.hoomd
 import numpy as np
 
 from .atomic import atomic_path, fsync_existing
-from .frames import FrameWriter, copy_frames
+from .frames import FrameReader, FrameWriter, copy_frames
 from ..run.observer import Observer, Totals
 from ..run.simulation import Simulation
 from ..state import State, StateError, _is_filled
@@ -129,73 +129,127 @@ def state_chunks(state: State, totals: Totals | None = None, pending: bool | Non
 
 
 def frame_to_state(frame: gsd.hoomd.Frame, check_overlaps: bool = True) -> State:
-    """Rebuild a :class:`State` from a GSD frame (exact for frames written by edmd).
+    """Rebuild a :class:`State` from a ``gsd.hoomd`` frame (exact for frames written by edmd).
 
     Frames from other programs work too: the box then comes from the (single precision)
     configuration chunk, radii from diameters (default 1), masses default to 1.
     ``check_overlaps=False`` accepts overlapping particles (soft-sphere frames, :mod:`edmd.run.dem`).
+    Files are read chunk by chunk instead (:func:`read_state`, :func:`iter_states`).
     """
-    d = int(frame.configuration.dimensions or 3)
-    n = int(frame.particles.N)
+
+    def get(name):
+        if name.startswith("log/"):
+            return frame.log.get(name[4:])
+        group, field = name.split("/", 1)
+        return getattr(getattr(frame, group), field, None)
+
+    return _state_from(get, check_overlaps)
+
+
+def read_frame(reader: FrameReader, frame: int, check_overlaps: bool = True) -> State:
+    """The :class:`State` of frame ``frame`` of an open file, read chunk by chunk (only the
+    chunks a State needs, each converted as it is read; see :func:`frame_to_state`).
+
+    Example:
+        >>> import edmd, tempfile, os
+        >>> p = os.path.join(tempfile.mkdtemp(), "s.gsd")
+        >>> write_state(p, edmd.lattice(32, 0.2))
+        >>> with FrameReader(p) as r:
+        ...     read_frame(r, 0).n
+        32
+    """
+    return _state_from(lambda name: reader.chunk(frame, name), check_overlaps)
+
+
+def _unless_all(values: np.ndarray | None, value) -> np.ndarray | None:
+    """``values``, or ``None`` where every entry is ``value`` (the State's default then costs no memory)."""
+    return None if values is None or np.all(values == value) else values
+
+
+def _state_from(get, check_overlaps: bool) -> State:
+    """A :class:`State` from the chunks of one frame: ``get(name)`` is chunk ``name`` (``None``:
+    not there). Each array is read when it is converted, one at a time; fields at their
+    defaults (no spins, images, last collisions, riders or pending contacts) are left out."""
+    d = int(_first(get("configuration/dimensions"), 3) or 3)
+    n = int(_first(get("particles/N"), 0))
     if n == 0:
         raise StateError("the GSD frame holds no particles")
-    log = frame.log
-    tilt = np.asarray(frame.configuration.box, np.float64)[3:]
-    if np.any(tilt != 0.0):  # (edmd's sheared states keep a rectangular box: log/configuration/shear_offset)
-        raise StateError(f"the GSD frame's box is tilted (tilt factors xy, xz, yz = {tilt.tolist()}): edmd simulates rectangular boxes only")
-    box = np.asarray(log.get("configuration/box", np.asarray(frame.configuration.box[:d], np.float64)), np.float64)
-    pos = np.asarray(frame.particles.position, np.float64)[:, :d]
-    vel = frame.particles.velocity
-    vel = np.zeros((n, d)) if vel is None else np.asarray(vel, np.float64)[:, :d]
-    if "particles/radius" in log:
-        radius = np.asarray(log["particles/radius"], np.float64)
-    else:
-        diam = frame.particles.diameter
+    gsd_box = np.asarray(_first_n(get("configuration/box"), 6), np.float64)
+    if np.any(gsd_box[3:] != 0.0):  # (edmd's sheared states keep a rectangular box: log/configuration/shear_offset)
+        raise StateError(f"the GSD frame's box is tilted (tilt factors xy, xz, yz = {gsd_box[3:].tolist()}): edmd simulates rectangular boxes only")
+    box = get("log/configuration/box")
+    box = gsd_box[:d] if box is None else np.asarray(box, np.float64)
+    pos = _columns(get("particles/position"), d, "particles/position")
+    vel = get("particles/velocity")
+    vel = np.zeros((n, d)) if vel is None else _columns(vel, d)
+    radius = get("log/particles/radius")
+    if radius is None:
+        diam = get("particles/diameter")
         radius = 0.5 * (np.ones(n) if diam is None else np.asarray(diam, np.float64))
-    mass = frame.particles.mass
+    mass = get("particles/mass")
     mass = np.ones(n) if mass is None else np.asarray(mass, np.float64)
-    inertia = frame.particles.moment_inertia
-    if inertia is not None and np.any(np.asarray(inertia) > 0):
-        inertia = np.asarray(inertia, np.float64)[:, 2 if d == 2 else 0]
-    else:
-        inertia = None
-    image = frame.particles.image
-    image = np.zeros((n, d), np.int64) if image is None else np.asarray(image, np.int64)[:, :d]
-    spin = log.get("particles/angular_velocity")
+    inertia = get("particles/moment_inertia")
+    inertia = np.ascontiguousarray(np.asarray(inertia, np.float64)[:, 2 if d == 2 else 0]) if inertia is not None and np.any(np.asarray(inertia) > 0) else None
+    image = _unless_all(get("particles/image"), 0)
+    image = None if image is None else _columns(image, d, dtype=np.int64)
+    spin = get("log/particles/angular_velocity")
     if spin is None and inertia is not None:
-        spin = _spin_from_angmom(frame, inertia, d)
-    periodic = log.get("configuration/periodic")
-    last = log.get("particles/last_collision")
-    riding = log.get("particles/riding")
-    time = float(log["time"][0]) if "time" in log else 0.0
-    captured = log.get("state/captured_pairs")
-    offset = log.get("configuration/shear_offset")
+        spin = _spin_from_angmom(get("particles/angmom"), get("particles/orientation"), inertia, d)
+    spin = _unless_all(spin, 0.0)
+    pending = [get(f"log/particles/pending_{k}") for k in ("velocity", "until", "partner")]
+    if pending[2] is not None and np.all(pending[2] == -1) and np.all(pending[1] == np.inf) and not np.any(pending[0]):
+        pending = [None, None, None]  # (none pending)
+    captured = get("log/state/captured_pairs")
+    periodic = get("log/configuration/periodic")
+    offset = get("log/configuration/shear_offset")
     return State(
         position=pos,
         velocity=vel,
         radius=radius,
         mass=mass,
         box=box,
-        time=time,
+        time=float(_first(get("log/time"), 0.0)),
         angular_velocity=None if spin is None else np.asarray(spin, np.float64),
         inertia=inertia,
         image=image,
         periodic=None if periodic is None else np.asarray(periodic, bool),
-        last_collision=None if last is None else np.asarray(last, np.float64),
-        pending_velocity=log.get("particles/pending_velocity"),
-        pending_until=log.get("particles/pending_until"),
-        pending_partner=log.get("particles/pending_partner"),
+        last_collision=_unless_all(get("log/particles/last_collision"), -np.inf),
+        pending_velocity=pending[0],
+        pending_until=pending[1],
+        pending_partner=pending[2],
         captured_pairs=None if captured is None else np.asarray(captured, np.int64).reshape(-1, 2),
-        riding=None if riding is None else np.asarray(riding, bool),
-        shear_offset=0.0 if offset is None else float(offset[0]),
+        riding=_unless_all(get("log/particles/riding"), 0),
+        shear_offset=float(_first(offset, 0.0)),
         check_overlaps=check_overlaps,
     )
 
 
-def _spin_from_angmom(frame: gsd.hoomd.Frame, inertia: np.ndarray, d: int) -> np.ndarray | None:
-    """Angular velocities from HOOMD angular momenta (frames of other programs, identity orientations)."""
-    p = frame.particles.angmom
-    q = frame.particles.orientation
+def _first(value, default):
+    """The first entry of a chunk (a scalar of a ``gsd.hoomd`` frame as is), or ``default``."""
+    return default if value is None else np.asarray(value).reshape(-1)[0]
+
+
+def _first_n(value, k: int) -> np.ndarray:
+    """The first ``k`` entries of a chunk, zeros where it has fewer (or none)."""
+    out = np.zeros(k)
+    if value is not None:
+        value = np.asarray(value, np.float64).reshape(-1)[:k]
+        out[: len(value)] = value
+    return out
+
+
+def _columns(values: np.ndarray | None, d: int, name: str = "", dtype=np.float64) -> np.ndarray:
+    """The first ``d`` columns of a per-particle chunk of 3 as ``dtype`` (the chunk itself when it is that already)."""
+    if values is None:
+        raise StateError(f"the GSD frame has no {name}")
+    values = np.asarray(values)
+    if values.ndim != 2 or values.shape[1] < d:
+        raise StateError(f"the GSD frame's {name or 'per-particle chunk'} has shape {values.shape}, expected (N, 3)")
+    return values[:, :d].astype(dtype, copy=False) if d == values.shape[1] else np.ascontiguousarray(values[:, :d], dtype=dtype)
+
+
+def _spin_from_angmom(p, q, inertia: np.ndarray, d: int) -> np.ndarray | None:
+    """Angular velocities from HOOMD angular momenta ``p`` (frames of other programs; orientations ``q`` must be the identity)."""
     if p is None or not np.any(p):
         return None
     if q is not None and not np.allclose(q, [1.0, 0.0, 0.0, 0.0]):
@@ -213,7 +267,7 @@ def frame_count(path: str | os.PathLike) -> int:
     if not os.path.exists(path):
         return 0
     try:
-        with gsd.hoomd.open(str(path), "r") as traj:
+        with FrameReader(path) as traj:
             return len(traj)
     except (OSError, RuntimeError, ValueError) as exc:
         raise _open_error(path, exc) from exc
@@ -233,9 +287,9 @@ def iter_states(path: str | os.PathLike, start: int = 0, stop: int | None = None
         [0.0, 0.5, 1.0]
     """
     try:
-        with gsd.hoomd.open(str(path), "r") as traj:
+        with FrameReader(path) as traj:
             for k in range(*slice(start, stop, step).indices(len(traj))):
-                yield frame_to_state(traj[k], check_overlaps)
+                yield read_frame(traj, k, check_overlaps)
     except (OSError, RuntimeError, ValueError, KeyError) as exc:
         raise _open_error(path, exc) from exc
 
@@ -273,12 +327,12 @@ def read_state(path: str | os.PathLike, frame: int = -1, check_overlaps: bool = 
         True
     """
     try:
-        with gsd.hoomd.open(str(path), "r") as traj:
+        with FrameReader(path) as traj:
             if len(traj) == 0:
                 raise StateError(f"{path} holds no frames")
             if not -len(traj) <= frame < len(traj):
                 raise StateError(f"{path} has {len(traj)} frames, there is no frame {frame}")
-            return frame_to_state(traj[frame], check_overlaps)
+            return read_frame(traj, frame, check_overlaps)
     except (OSError, RuntimeError, ValueError, KeyError) as exc:
         raise _open_error(path, exc) from exc
 
@@ -295,16 +349,10 @@ def frame_size(path: str | os.PathLike, frame: int = -1) -> int | None:
         32
     """
     try:
-        with gsd.fl.open(str(path), "r") as f:
-            frames = f.nframes
-            if not -frames <= frame < frames:
-                return None
-            for k in (frame % frames, 0):  # (a frame without the chunk has frame 0's)
-                if f.chunk_exists(frame=k, name="particles/N"):
-                    return int(f.read_chunk(frame=k, name="particles/N")[0])
+        with FrameReader(path) as f:
+            return f.count(frame) or None if -len(f) <= frame < len(f) else None
     except (OSError, RuntimeError, ValueError, KeyError):
-        pass
-    return None
+        return None
 
 
 def write_state(path: str | os.PathLike, state: State, totals: Totals | None = None):

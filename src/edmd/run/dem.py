@@ -369,8 +369,9 @@ class DEMSimulation(Simulation):
         self._skin = skin * 2.0 * float(state.radius.mean())
         super().__init__(state, gravity=gravity)
 
-    def _build_engine(self, state, collision, walls, gravity, drivers, options):
-        """The DEM engine (the event-driven physics arguments are unused: all ``None``)."""
+    def _build_engine(self, state, collision, walls, gravity, drivers, options, saved=None):
+        """The DEM engine (the event-driven physics arguments are unused: all ``None``; DEM runs
+        have no checkpoints, so never ``saved`` arrays)."""
         self.params = {
             "contact": {"type": type(self.contact).__name__, **dataclasses.asdict(self.contact)},
             "dt": self._step,

@@ -151,6 +151,20 @@ def _radii_key(radius: np.ndarray) -> tuple[float, float, float]:
     return float(radius.max()), float(radius.min()), float(radius.sum())
 
 
+@dataclasses.dataclass(frozen=True)
+class Saved:
+    """The engine arrays a checkpoint saves right after its resync (:mod:`edmd.files.checkpoint`).
+
+    ``take_state``: the State loaded with them is the restart's own, handed over to the engine
+    (see :meth:`Engine.load`).
+    """
+
+    counters: np.ndarray
+    accumulators: np.ndarray
+    list_capacity: int
+    take_state: bool = False
+
+
 class EngineError(RuntimeError):
     """The event loop found an inconsistency (debug mode) or cannot go on."""
 
@@ -162,8 +176,10 @@ class CollapseError(EngineError):
 class Engine:
     """Compiled-core arrays of one system (internal; see :class:`edmd.Simulation`)."""
 
-    def __init__(self, state: State, options: EngineOptions | None = None, rule=None, wall=None, gravity=None, **drivers):
-        """``drivers``: ``thermostat``, ``forcing``, ``vibration``, ``well``, ``growth``, ``shear`` (``None``: off)."""
+    def __init__(self, state: State, options: EngineOptions | None = None, rule=None, wall=None, gravity=None, saved: Saved | None = None, **drivers):
+        """``drivers``: ``thermostat``, ``forcing``, ``vibration``, ``well``, ``growth``, ``shear`` (``None``: off).
+        ``saved``: the engine arrays of a checkpoint (:class:`Saved`): the engine is rebuilt
+        exactly as it was right after the resync to ``state`` at which they were saved."""
         thermostat, forcing, vibration, well, growth, shear = (drivers.pop(k, None) for k in ("thermostat", "forcing", "vibration", "well", "growth", "shear"))
         if drivers:
             raise TypeError(f"unknown engine arguments {sorted(drivers)}")
@@ -234,7 +250,10 @@ class Engine:
         #: (this process's segments: a checkpoint does not carry them)
         self.segments: list[tuple[float, float, float, int]] = []
         self._select_loop(growing=growth is not None)
-        self.load(state)
+        if saved is None:
+            self.load(state)
+        else:
+            self._restore(state, saved)
 
     def _select_loop(self, growing: bool):
         """The event loop compiled for this system's features only (see :func:`loop_variant`)."""
@@ -498,11 +517,13 @@ class Engine:
                 "choose a phase that starts the wall at its rest plane (sine: phase = -pi/2) or make room"
             )
 
-    def load(self, state: State, new: bool = True):
+    def load(self, state: State, new: bool = True, take: bool = False):
         """(Re)build every array from ``state``: particles are spatially sorted internally.
 
         ``new``: a state from outside the engine (not one of its own resyncs or checkpoints),
-        checked to be clear of the vibrating wall.
+        checked to be clear of the vibrating wall. ``take``: the caller hands ``state`` over (a
+        restart's own): its positions, velocities and images are dropped (``None``) as soon as
+        they are copied, before the engine's other arrays are made.
         """
         check_loadable(state, self, new)
         self.t_origin = float(state.time)
@@ -539,6 +560,8 @@ class Engine:
         image = np.zeros((n, 3), np.int32)
         for k in range(self.dim):
             image[:, k] = state.image[order, k]
+        if take:
+            state.position = state.velocity = state.image = None
         self.part = Particles(P, state.mass[order], *self._spins(state, order), image, np.zeros(n, np.int32), self._tc_times(state, order))
         self.emd = emd_bundle(n if self.emd_rule is not None else 0, self.emd_rule, pending, self.dim, _species(state) if self.emd_rule is not None else None)
         self.ev = new_events(n)
@@ -855,21 +878,18 @@ class Engine:
         integrate_kinetic(self.acc, local, self.geo, self.fp[L.FP_MTOT])
         self.load(state, new=False)
 
-    def restore(self, state: State, counters: np.ndarray, accumulators: np.ndarray, list_capacity: int):
-        """Rebuild the engine exactly as it was right after a resync to ``state`` (a checkpoint).
-
-        ``counters``, ``accumulators`` and ``list_capacity`` are the values saved right after
-        that resync; the maintenance schedule (``events_at_sync``) follows from the counters.
-        """
-        if counters.shape != self.cnt.shape or accumulators.shape != self.acc.shape:
+    def _restore(self, state: State, saved: Saved):
+        """Load ``state`` with the counters, accumulators and list capacity saved right after a
+        resync to it; the maintenance schedule (``events_at_sync``) follows from the counters."""
+        if saved.counters.shape != self.cnt.shape or saved.accumulators.shape != self.acc.shape:
             raise StateError(
-                f"checkpoint counters/accumulators have shapes {counters.shape}/{accumulators.shape}, "
+                f"checkpoint counters/accumulators have shapes {saved.counters.shape}/{saved.accumulators.shape}, "
                 f"this engine expects {self.cnt.shape}/{self.acc.shape}"
             )
-        self.cnt[:] = counters
-        self.acc[:] = accumulators
-        self.list_capacity = int(list_capacity)
-        self.load(state, new=False)
+        self.cnt[:] = saved.counters
+        self.acc[:] = saved.accumulators
+        self.list_capacity = int(saved.list_capacity)
+        self.load(state, new=False, take=saved.take_state)
 
     # ------------------------------------------------------------------ observation
     def stream(self, t: float):

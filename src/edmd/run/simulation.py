@@ -16,7 +16,7 @@ from ..physics import collide
 from ..physics.contact import Hertz
 from ..physics.emdstar import EMDStar
 from .._core import layout as L
-from .engine import Engine, EngineError, EngineOptions
+from .engine import Engine, EngineError, EngineOptions, Saved
 from .observer import Observer, Totals
 from ..state import State
 from ..physics.thermostats import Andersen, WhiteNoise, driver_from_dict
@@ -45,6 +45,7 @@ class Simulation:
         shear: Lees-Edwards boundaries, uniform shear flow along x with gradient along y
             (:class:`edmd.Shear`, or its dict) or ``None``.
         engine: :class:`~edmd.run.engine.EngineOptions` (or a dict of them).
+        _saved: internal: a checkpoint's engine arrays (:func:`edmd.files.checkpoint.load_checkpoint`).
 
     Example:
         >>> import edmd
@@ -69,6 +70,7 @@ class Simulation:
         growth: Growth | dict | None = None,
         shear: Shear | dict | None = None,
         engine: EngineOptions | dict | None = None,
+        _saved: Saved | None = None,
     ):
         if e_n is not None:
             if collision is not None:
@@ -91,25 +93,27 @@ class Simulation:
         state.check()  # (a State's fields may have been changed since it was made)
         if walls is not None and walls != collide.Wall() and np.all(state.periodic):
             warnings.warn("walls= has no effect: the state's box is periodic on every axis (give the State periodic=[...] with False on the walled axes)", UserWarning, stacklevel=2)
-        self._engine = self._build_engine(state, collision, walls, gravity, (thermostat, forcing, vibration, well, growth, shear), engine)
+        self._engine = self._build_engine(state, collision, walls, gravity, (thermostat, forcing, vibration, well, growth, shear), engine, _saved)
         #: uniform acceleration (``d`` components)
-        self.gravity = self._engine.grav[: state.dim].copy()
-        if self._hard_cores and not state.has_pending:
+        self.gravity = self._engine.grav[: self._engine.dim].copy()
+        if self._hard_cores and not state.has_pending and _saved is None:  # (a checkpoint's state was checked when read)
             state.check_no_overlap()
         self._time = float(state.time)
         self.observers: list[Observer] = []
         self.wall_seconds = 0.0
 
-    def _build_engine(self, state, collision, walls, gravity, drivers, options):
+    def _build_engine(self, state, collision, walls, gravity, drivers, options, saved=None):
         """The engine of these physics, compiled; sets :attr:`params` (subclasses with another
-        engine, e.g. :class:`~edmd.run.dem.DEMSimulation`, override this and nothing else of the set-up)."""
+        engine, e.g. :class:`~edmd.run.dem.DEMSimulation`, override this and nothing else of the
+        set-up). ``saved``: a checkpoint's engine arrays (:class:`~edmd.run.engine.Saved`)."""
         thermostat, forcing, vibration, well, growth, shear = drivers
         engine = Engine(
-            state, options, rule=collision, wall=walls, gravity=gravity, thermostat=thermostat, forcing=forcing, vibration=vibration, well=well,
-            growth=growth, shear=shear,
+            state, options, rule=collision, wall=walls, gravity=gravity, saved=saved, thermostat=thermostat, forcing=forcing, vibration=vibration,
+            well=well, growth=growth, shear=shear,
         )  # fmt: skip
         engine.compile()  # once per machine (cached on disk); kept out of wall_seconds
-        _warn_viscoelastic_validity(state, engine.rule, engine.wall, engine.grav[: state.dim])
+        if saved is None:  # (a restart's run was warned when it started)
+            _warn_viscoelastic_validity(state, engine.rule, engine.wall, engine.grav[: state.dim])
         #: the constructor's physics arguments (saved in checkpoints; new arguments belong here)
         self.params = {
             "collision": collide.to_dict(engine.rule),
@@ -145,12 +149,6 @@ class Simulation:
             new.check_no_overlap()
         self._engine.load(new)
         self._time = float(new.time)
-
-    def restore(self, state: State, counters, accumulators, list_capacity: int):
-        """Continue exactly as a run did right after the resync at which it saved ``state`` and its
-        engine arrays (a checkpoint, :mod:`edmd.files.checkpoint`)."""
-        self._engine.restore(state, counters, accumulators, list_capacity)
-        self._time = float(state.time)
 
     @property
     def engine(self) -> Engine:
