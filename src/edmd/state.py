@@ -348,7 +348,8 @@ class State:
         box, half = self.geometry()
         shear = None if self.shear_offset == 0.0 else (0.0, self.shear_offset)
         grid = overlap_grid(self.radius, box, np.r_[self.periodic, [False] * (3 - self.dim)], self.dim, shear=shear is not None)
-        i, j, d = worst_overlap(self.points, self.radius, make_geo(box, half, shear=shear), grid, rel_tol)
+        points = self.position if self.dim == 3 and self.position.flags.c_contiguous else self.points  # (no copy of 3D positions)
+        i, j, d = worst_overlap(points, self.radius, make_geo(box, half, shear=shear), grid, rel_tol)
         return None if i < 0 else (int(i), int(j), float(d))
 
     def check_no_overlap(self, rel_tol: float = OVERLAP_TOLERANCE):

@@ -91,13 +91,14 @@ class Simulation:
         if not isinstance(state, State):
             raise TypeError(f"Simulation needs an edmd.State, got {type(state).__name__}")
         state.check()  # (a State's fields may have been changed since it was made)
+        self._soft = isinstance(collision, EMDStar)
+        if self._hard_cores and not state.has_pending and _saved is None:  # (a checkpoint's state was checked when read)
+            state.check_no_overlap()  # (before the engine's arrays exist: the check's grid is a transient)
         if walls is not None and walls != collide.Wall() and np.all(state.periodic):
             warnings.warn("walls= has no effect: the state's box is periodic on every axis (give the State periodic=[...] with False on the walled axes)", UserWarning, stacklevel=2)
         self._engine = self._build_engine(state, collision, walls, gravity, (thermostat, forcing, vibration, well, growth, shear), engine, _saved)
         #: uniform acceleration (``d`` components)
         self.gravity = self._engine.grav[: self._engine.dim].copy()
-        if self._hard_cores and not state.has_pending and _saved is None:  # (a checkpoint's state was checked when read)
-            state.check_no_overlap()
         self._time = float(state.time)
         self.observers: list[Observer] = []
         self.wall_seconds = 0.0
@@ -220,7 +221,7 @@ class Simulation:
     @property
     def soft_contacts(self) -> bool:
         """Whether pairs may be in a pending eMD* contact (states then carry pending velocities)."""
-        return self._engine.emd_rule is not None
+        return self._soft
 
     def emd_counters(self) -> dict[str, int]:
         """The eMD* counters by name (physics.md §4.8; empty without eMD*)."""
