@@ -3,7 +3,8 @@
 Each case runs in a fresh process: imports and a small warm-up run (compiles or loads the
 core) set the baseline resident memory; then the state is built (``lattice``, ``random``, or ``replicated``: an amorphous packing of
 ``n / 125`` particles tiled 5 x 5 x 5; Maxwell-Boltzmann velocities), the Simulation made from it (the user's state stays
-alive, as in a script), and ``--events`` events per particle run. The peak resident set of each
+alive, as in a script), ``--events`` events per particle run, and the engine resynced (as
+maintenance does every 200 events per particle). The peak resident set of each
 stage comes from the kernel's high-water mark (reset between stages through
 ``/proc/self/clear_refs``, Linux), so transient copies count; the last stage takes a snapshot
 (``Simulation.state``), as every observer output does, and the outputs of ``edmd run`` fire
@@ -79,6 +80,8 @@ def measure(n: int, eta: float, mode: str, start: str, events: float, folder: st
     stage("simulation")
     sim.run(max_events=int(events * n))
     stage("run")
+    sim.engine.resync()  # (a maintenance resync, every 200 events per particle; each checkpoint makes one)
+    stage("resync")
     snap = sim.state  # what observers that read the state take
     del snap
     stage("snapshot")
@@ -171,7 +174,7 @@ def main(argv=None):
                 st = r["stages_bytes_per_particle"]
                 print(
                     f"N={n:9d} eta={eta:.2f} [{r['neighbours']:5s}] peak {r['peak_bytes_per_particle']:4.0f} B/particle "
-                    f"(state {st['state']['peak']:.0f}, simulation {st['simulation']['peak']:.0f}, run {st['run']['peak']:.0f}, "
+                    f"(state {st['state']['peak']:.0f}, simulation {st['simulation']['peak']:.0f}, run {st['run']['peak']:.0f}, resync {st['resync']['peak']:.0f}, "
                     f"snapshot {st['snapshot']['peak']:.0f}, outputs {st['outputs']['peak']:.0f}, restart {st['restart']['peak']:.0f}); "
                     f"engine {r['engine_bytes_per_particle']:.0f} B/particle; set-up {r['state_seconds']:.1f} + "
                     f"{r['simulation_seconds']:.1f} s; restart {r['restart_seconds']:.1f} s",

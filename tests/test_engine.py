@@ -1,5 +1,7 @@
 """The event engine against an independent brute-force reference, and its invariants."""
 
+import tracemalloc
+
 import numpy as np
 import pytest
 
@@ -277,6 +279,40 @@ def test_engine_memory_per_particle(dim, mode):
     per_particle = sum(a.nbytes for a in arrays) / s.n
     lists = e.lists.members.nbytes / s.n if mode == "list" else 0.0
     assert per_particle - lists < 175 + 28 * (mode == "list"), per_particle
+
+
+@pytest.mark.parametrize("mode", ["cells", "list"])
+def test_a_resync_needs_less_than_a_state_beyond_the_run(mode):
+    """A maintenance resync rebuilds the engine from a snapshot: the event, calendar, cell and list
+    arrays go before the snapshot is made, and the load drops the snapshot's positions, velocities
+    and images as it copies them. Before, the snapshot (96 B per particle) and its transients
+    came on top of the whole engine: +135-145 B per particle above the run (+48 at N = 1e6 above
+    the set-up's peak, benchmarks/README.md "Memory")."""
+    n = 8000
+    s = edmd.maxwell_boltzmann(edmd.lattice(n, 0.5), 1.0, seed=2)
+    edmd.Simulation(s, engine={"neighbours": mode}).run(max_events=100)  # (compiled before tracing)
+    tracemalloc.start()
+    try:
+        sim = edmd.Simulation(s, engine={"neighbours": mode})
+        sim.run(max_events=2 * n)
+        tracemalloc.reset_peak()
+        before = tracemalloc.get_traced_memory()[0]
+        sim.engine.resync()
+        peak = tracemalloc.get_traced_memory()[1] - before
+    finally:
+        tracemalloc.stop()
+    assert peak <= 96 * n, f"the resync took {peak / n:.0f} B per particle beyond the run"
+
+
+def test_a_fault_found_by_a_resync_stops_the_engine_with_the_state_readable():
+    sim = edmd.Simulation(edmd.maxwell_boltzmann(edmd.lattice(500, 0.3), 1.0, seed=1))
+    sim.run(max_events=1000)
+    sim.engine.part.rows[7, 3] = np.nan  # (a corrupted velocity)
+    with pytest.raises(StateError, match=r"is not finite \(NaN or inf\) at particle"):
+        sim.engine.resync()
+    assert np.isnan(sim.state.velocity).any() and sim.state.n == 500  # (still readable)
+    with pytest.raises(edmd.run.engine.EngineError, match="stopped at a fault of its last resync: .* is not finite"):
+        sim.run(max_events=10)
 
 
 @pytest.mark.parametrize("case", ["rough", "spinning", "inertia", "tc"])
