@@ -163,3 +163,30 @@ def test_batch_progress_of_a_wall_time_budget_is_the_wall_clock(capsys):
     percents = [p for p, _ in _progress_lines(capsys.readouterr().out)]
     assert percents[-1] == 100.0 and len(percents) >= 3
     assert all(p < 100.0 for p in percents[:-1]) and percents == sorted(percents)
+
+
+def test_outputs_that_read_their_state_once_take_no_copy_of_it(tmp_path):
+    """Thermo rows and trajectory frames are made from a view of the engine (each array made as
+    it is read): less than one State copy beyond the run (153 B per particle before, when they
+    shared a copy), while a callback, which may keep its state, gets a copy of its own."""
+    import tracemalloc
+
+    from edmd.state import StateView
+
+    n = 8000
+    sim = Simulation(edmd.maxwell_boltzmann(edmd.lattice(n, 0.5), 1.0, seed=2), engine={"neighbours": "cells"})
+    sim.add(edmd.Thermo(0.05, path=tmp_path / "t.csv"))
+    sim.add(edmd.Trajectory(tmp_path / "t.gsd", 0.05))
+    sim.run(until_time=0.11)  # (three frames: the later ones compared with the first)
+    tracemalloc.start()
+    try:
+        sim.run(until_time=0.16)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak <= 96 * n, f"an output took {peak / n:.0f} B per particle"
+    kept = []
+    sim.add(Callback(lambda s, tot: kept.append(s), 0.05))
+    sim.run(until_time=0.26)
+    assert kept and all(type(s) is edmd.State and not isinstance(s, StateView) for s in kept)
+    assert kept[0].time == 0.16 and np.isfinite(kept[0].position).all()  # (readable after the run went on)

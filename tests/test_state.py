@@ -193,3 +193,37 @@ def test_check_names_a_nan_spin_of_a_trusted_state(dim):
 def test_radii_of_another_length_name_the_field():
     with pytest.raises(StateError, match=r"radius must be one number or 2 numbers \(one per particle\), got shape \(3,\)"):
         State(position=[[0.0, 0.0], [2.0, 0.0]], velocity=[[0.0, 0.0], [0.0, 0.0]], radius=[0.5, 0.5, 0.5], mass=1.0, box=[5.0, 5.0])
+
+
+# ---------------------------------------------------------------------------- views
+@pytest.mark.parametrize("rule", ["smooth", "emdstar"])
+def test_a_view_reads_what_a_copy_holds_each_field_made_when_read(dim, rule):
+    import dataclasses
+
+    from edmd.physics.emdstar import EMDStar
+    from edmd.state import PARTICLE_FIELDS, StateView
+
+    s = edmd.maxwell_boltzmann(edmd.lattice(200, 0.3, dim=dim), 1.0, seed=4, spin=rule == "smooth")
+    kw = {"collision": EMDStar(edmd.LinearDashpot(k=500.0, gamma=8.0))} if rule == "emdstar" else {"e_n": 0.9}
+    sim = edmd.Simulation(s, **kw)
+    sim.run(max_events=3000)
+    view, copy = sim.state_view(), sim.state
+    assert isinstance(view, StateView) and view.n == 200 and view.dim == dim and view.time == copy.time
+    for name in PARTICLE_FIELDS:
+        assert np.array_equal(getattr(view, name), getattr(copy, name)), name
+    assert view.position is not view.position  # (made at every read, never kept)
+    for method in ("kinetic_energy", "temperature", "rotational_energy", "momentum"):
+        assert np.array_equal(getattr(view, method)(), getattr(copy, method)()), method
+    again = view.copy()
+    assert type(again) is State and np.array_equal(again.velocity, copy.velocity)
+    replaced = dataclasses.replace(view, velocity=np.zeros((200, dim)), check_overlaps=False)
+    assert type(replaced) is State and not replaced.velocity.any() and np.array_equal(replaced.position, copy.position)
+    sim.run(max_events=10)
+    with pytest.raises(RuntimeError, match="out of date"):
+        view.velocity
+
+
+def test_potential_energy_without_gravity_reads_no_positions():
+    s = edmd.lattice(8, 0.1)
+    s.position = None  # (it would fail if read)
+    assert str(s.potential_energy(None)) == "-0.0" and str(s.potential_energy([0.0, 0.0, 0.0])) == "-0.0"

@@ -460,8 +460,9 @@ class State:
 
     def potential_energy(self, gravity) -> float:
         r"""Potential energy :math:`-\sum_i m_i\,\mathbf G\cdot\mathbf r_i` in uniform gravity (unwrapped positions)."""
-        g = np.zeros(self.dim) if gravity is None else np.asarray(gravity, float)
-        return -float(self.mass @ (self.unwrapped_position @ g))
+        if gravity is None or not np.any(gravity):  # (no positions read: -0.0, as the sum gives)
+            return -0.0
+        return -float(self.mass @ (self.unwrapped_position @ np.asarray(gravity, float)))
 
     def momentum(self) -> np.ndarray:
         """Total linear momentum (of the committed velocities)."""
@@ -475,6 +476,72 @@ class State:
     def copy(self) -> State:
         """Deep copy."""
         return dataclasses.replace(self, check_overlaps=False)
+
+
+#: the per-particle fields of a :class:`State`
+PARTICLE_FIELDS = (
+    "position", "velocity", "radius", "mass", "angular_velocity", "inertia", "image", "last_collision", "riding",
+    "pending_velocity", "pending_until", "pending_partner",
+)  # fmt: skip
+
+
+class StateView(State):
+    """A :class:`State` whose per-particle fields are made when read, a new array at every read
+    (none is kept): what an engine gives the observers that read their state only while they
+    fire (:attr:`edmd.run.observer.Observer.reads_once`; ``Simulation.state_view()``), instead of a
+    copy of every particle. Everything a State computes works on it; :meth:`copy` (and
+    ``dataclasses.replace``) make a plain State. It is readable only as long as its source is
+    unchanged (``RuntimeError`` afterwards: take ``Simulation.state`` to keep a state).
+
+    Example:
+        >>> import edmd
+        >>> sim = edmd.Simulation(edmd.maxwell_boltzmann(edmd.lattice(64, 0.2), 1.0, seed=1))
+        >>> view = sim.state_view()
+        >>> round(view.temperature(), 12), view.velocity is view.velocity
+        (1.0, False)
+    """
+
+    def __new__(cls, *args, **fields):
+        # (called with a State's fields, as dataclasses.replace does: a plain State)
+        return State(*args, **fields)
+
+    @classmethod
+    def of(cls, n: int, dim: int, fixed: dict, makers: dict, valid) -> StateView:
+        """The view of ``n`` particles in ``dim`` dimensions: ``fixed`` the fields that are not
+        per particle (box, time, ...), ``makers`` a function per particle field (the pending eMD*
+        contacts default to none), ``valid()`` whether its source still holds."""
+        view = object.__new__(cls)
+        view.__dict__.update(fixed)
+        view.__dict__.setdefault("captured_pairs", None)
+        view._n, view._dim, view._valid = n, dim, valid
+        none = dict(zip(("pending_velocity", "pending_until", "pending_partner"), _no_pending(n, dim)))
+        view._makers = {**{name: (lambda value=value: value) for name, value in none.items()}, **makers}
+        return view
+
+    def _make(self, name: str) -> np.ndarray:
+        if not self._valid():
+            raise RuntimeError("this state view is out of date (the simulation went on): take Simulation.state to keep a state")
+        return self._makers[name]()
+
+    @property
+    def n(self) -> int:
+        return self._n
+
+    @property
+    def dim(self) -> int:
+        return self._dim
+
+    def copy(self) -> State:
+        """A plain :class:`State` of the same fields (every one made)."""
+        return State.trusted(**{name: self._make(name) for name in PARTICLE_FIELDS}, **{k: v for k, v in self.__dict__.items() if not k.startswith("_")})
+
+
+def _made(name: str) -> property:
+    return property(lambda self: self._make(name), doc=f"``{name}``, made when read.")
+
+
+for _name in PARTICLE_FIELDS:
+    setattr(StateView, _name, _made(_name))
 
 
 def rescale_temperature(state: State, kT: float) -> State:

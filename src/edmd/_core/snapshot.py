@@ -7,18 +7,24 @@ from .images import fold_face
 from .predict import flight
 
 
+#: what :func:`stream_all` makes: positions, velocities, images (a mask)
+POSITIONS, VELOCITIES, IMAGES = 1, 2, 4
+
+
 @jit_alloc
-def stream_all(P, image, tag, t, d, geo):
+def stream_all(P, image, tag, t, d, geo, which):
     """Positions (wrapped into the box), velocities and images of every particle at time ``t``,
-    in the user's order (particle ``i`` of the engine is ``tag[i]``) and ``d`` dimensions.
+    in the user's order (particle ``i`` of the engine is ``tag[i]``) and ``d`` dimensions;
+    ``which`` (a mask of :data:`POSITIONS`, :data:`VELOCITIES`, :data:`IMAGES`) says which are
+    made (the others come back with no rows).
 
     The engine's own arrays are not modified (physics.md §1.1: lazy update, evaluated on demand);
     the copies are made once, in their final order (no intermediate arrays of every particle).
     """
     n = P.shape[0]
-    pos = np.empty((n, d))
-    vel = np.empty((n, d))
-    img = np.empty((n, d), np.int64)
+    pos = np.empty((n if which & POSITIONS else 0, d))
+    vel = np.empty((n if which & VELOCITIES else 0, d))
+    img = np.empty((n if which & IMAGES else 0, d), np.int64)
     for i in range(n):
         x, y, z, vx, vy, vz = flight(P, i, t, geo)
         x, y, vx, across = fold_face(x, y, vx, t, geo)  # (sheared box: through the sliding y face)
@@ -36,7 +42,10 @@ def stream_all(P, image, tag, t, d, geo):
                 while xk < -half:
                     xk += length
                     m -= 1
-            pos[u, k] = xk
-            img[u, k] = m
-            vel[u, k] = v[k]
+            if which & POSITIONS:
+                pos[u, k] = xk
+            if which & IMAGES:
+                img[u, k] = m
+            if which & VELOCITIES:
+                vel[u, k] = v[k]
     return pos, vel, img

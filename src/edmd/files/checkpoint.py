@@ -116,7 +116,7 @@ def save_checkpoint(sim: Simulation, path: str | os.PathLike, metadata: dict | N
         engine.resync(sim.time)
     for obs in sim.observers:  # (their rows and frames on disk before a checkpoint counts them)
         obs.sync()
-    chunks = state_chunks(sim.state, sim.totals())
+    chunks = state_chunks(sim.state_view(), sim.totals())  # (each particle array made as it is written)
     observers = []
     for k, obs in enumerate(sim.observers):
         scalars, arrays = _split(obs.checkpoint_data())

@@ -131,6 +131,8 @@ class Thermo(Observer):
         ([0.0, 1.0, 2.0, 3.0], 1.0)
     """
 
+    reads_once = True  # (its row is made while it fires)
+
     def __init__(self, interval: float, path: str | os.PathLike | None = None, start: float | None = None):
         super().__init__(interval, start)
         self.rows: list[dict] = []

@@ -407,6 +407,8 @@ class Trajectory(Observer):
         3
     """
 
+    reads_once = True  # (its frame is written while it fires, one array at a time)
+
     def __init__(self, path: str | os.PathLike, interval: float, start: float | None = None, mode: str = "w", run_id: str | None = None):
         if mode not in ("w", "a"):
             raise ValueError(f"mode must be 'w' or 'a', got {mode!r}")

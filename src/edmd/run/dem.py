@@ -406,6 +406,10 @@ class DEMSimulation(Simulation):
         self._engine.load(new)
         self._time = float(new.time)
 
+    def state_view(self) -> State:
+        """The state at the current time: a copy (the DEM's arrays are its particles' own; no view)."""
+        return self.state
+
     @property
     def elastic_energy(self) -> float:
         """Elastic energy stored in the contacts."""

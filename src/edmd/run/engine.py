@@ -28,7 +28,7 @@ from .._core.jit import in_disk_cache
 from .._core.loop import GEO_ARG, integrate_kinetic, loop_variant
 from .._core.wallmotion import rider_axis
 from .._core.queue import QI_MOVED, calendar_shape, new_queue, queue_build
-from .._core.snapshot import stream_all
+from .._core.snapshot import IMAGES, POSITIONS, VELOCITIES, stream_all
 from .._core.nblist import list_reach
 from .._core.wells import capture_by_distance, captured_pairs, load_captured, well_reach
 from ..physics import collide
@@ -36,7 +36,7 @@ from ..physics.emdstar import EMDStar, FrictionTableWarning, emd_bundle, frictio
 from ..physics.tables import PAIR_SPECIES
 from .memory import grid_shape
 from .neighbours import big_count, block_reach, cell_edge, local_densities
-from ..state import State, StateError, default_inertia, filled, rescale_temperature
+from ..state import State, StateError, StateView, default_inertia, filled, rescale_temperature
 
 #: ``INFO`` when a run must compile its loop variant first (the CLI shows it)
 log = logging.getLogger("edmd.compile")
@@ -906,15 +906,51 @@ class Engine:
         self.load(state, new=False, take=saved.take_state)
 
     # ------------------------------------------------------------------ observation
-    def stream(self, t: float):
-        """User-order positions (wrapped), velocities and images at absolute time ``t``."""
-        return stream_all(self.part.rows, self.part.image, self.tag, t - self.t_origin, self.dim, self.geo)
+    def stream(self, t: float, which: int = POSITIONS | VELOCITIES | IMAGES):
+        """User-order positions (wrapped), velocities and images at absolute time ``t`` (``which``:
+        those to make, :func:`edmd._core.snapshot.stream_all`; the others have no rows)."""
+        return stream_all(self.part.rows, self.part.image, self.tag, t - self.t_origin, self.dim, self.geo, which)
 
     def _user_order(self, values: np.ndarray) -> np.ndarray:
         """``values`` of the particles in internal order, in the user's order."""
         out = np.empty_like(values)
         out[self.tag] = values
         return out
+
+    def _fields(self, t: float) -> tuple[dict, dict]:
+        """The state at absolute time ``t``: its fields that are not per particle, and a function
+        that makes each per-particle field (user order) when called."""
+        d, n = self.dim, self.n
+        omega, inertia, tlast = self.part.omega, self.part.inertia, self.part.last_collision
+
+        def radius():
+            r = self._user_order(self.part.rows[:, L.R])
+            r *= 1.0 + self.fp[L.FP_GROW_LOCAL] * (t - self.t_origin)
+            return r
+
+        def mass():
+            return self._user_order(self.part.mass)
+
+        fixed = {"box": self.box_user.copy(), "time": float(t), "periodic": self.periodic.copy(), "shear_offset": self.shear_offset(t)}
+        makers = {
+            "position": lambda: self.stream(t, POSITIONS)[0],
+            "velocity": lambda: self.stream(t, VELOCITIES)[1],
+            "image": lambda: self.stream(t, IMAGES)[2],
+            "radius": radius,
+            "mass": mass,
+            "angular_velocity": lambda: self._user_order(omega if d == 3 else omega[:, 2]) if len(omega) else filled(0.0, (n, 3) if d == 3 else (n,)),
+            "inertia": lambda: self._user_order(inertia) if len(inertia) else default_inertia(mass(), radius(), d),
+            "last_collision": lambda: self._user_order(tlast + self.t_origin) if len(tlast) else filled(-np.inf, (n,)),
+            "riding": lambda: self._user_order(self.part.rows[:, L.RIDE] != 0.0) if self.vibration is not None else filled(False, (n,), bool),
+        }
+        if self.emd_rule is not None:
+            partner = self.emd.partner
+            makers["pending_velocity"] = lambda: self._user_order(self.emd.pending_dv[:, :d])
+            makers["pending_until"] = lambda: self._user_order(self.emd.pending_until + self.t_origin)
+            makers["pending_partner"] = lambda: self._user_order(np.where(partner >= 0, self.tag[np.maximum(partner, 0)], -1).astype(np.int64))
+        if self.well is not None:
+            fixed["captured_pairs"] = self.tag[captured_pairs(self.pairs)]
+        return fixed, makers
 
     def snapshot(self, t: float | None = None, checked: bool = False) -> State:
         """The exact state at absolute time ``t`` (default: now), particles in user order.
@@ -923,40 +959,28 @@ class Engine:
         unless ``checked``: resyncs check what they reload, so an engine fault (a NaN, a particle
         outside the box) stops the run there with a :class:`StateError` naming it."""
         t = self.now if t is None else t
-        pos, vel, image = self.stream(t)
-        d, n = self.dim, self.n
-        omega, inertia, tlast = self.part.omega, self.part.inertia, self.part.last_collision
-        radius = self._user_order(self.part.rows[:, L.R])
-        radius *= 1.0 + self.fp[L.FP_GROW_LOCAL] * (t - self.t_origin)
-        m = self._user_order(self.part.mass)
-        fields = {
-            "position": pos,
-            "velocity": vel,
-            "radius": radius,
-            "mass": m,
-            "box": self.box_user.copy(),
-            "time": float(t),
-            "angular_velocity": self._user_order(omega if d == 3 else omega[:, 2]) if len(omega) else filled(0.0, (n, 3) if d == 3 else (n,)),
-            "inertia": self._user_order(inertia) if len(inertia) else default_inertia(m, radius, d),
-            "image": image,
-            "periodic": self.periodic.copy(),
-            "last_collision": self._user_order(tlast + self.t_origin) if len(tlast) else filled(-np.inf, (n,)),
-            "riding": self._user_order(self.part.rows[:, L.RIDE] != 0.0) if self.vibration is not None else filled(False, (n,), bool),
-            "shear_offset": self.shear_offset(t),
-        }
-        if self.emd_rule is not None:
-            partner = self.emd.partner
-            fields["pending_velocity"] = self._user_order(self.emd.pending_dv[:, :d])
-            fields["pending_until"] = self._user_order(self.emd.pending_until + self.t_origin)
-            fields["pending_partner"] = self._user_order(np.where(partner >= 0, self.tag[np.maximum(partner, 0)], -1).astype(np.int64))
+        fixed, makers = self._fields(t)
+        pos, vel, image = self.stream(t)  # (one pass for the three)
+        fields = {"position": pos, "velocity": vel, "image": image, **fixed}
+        fields["radius"], fields["mass"] = makers.pop("radius")(), makers.pop("mass")()
+        if not len(self.part.inertia):  # (the default, of the radii and masses just made)
+            makers["inertia"] = lambda: default_inertia(fields["mass"], fields["radius"], self.dim)
+        fields.update({name: make() for name, make in makers.items() if name not in fields})
         if self.well is not None:  # (sorted and checked the State's way)
-            fields["captured_pairs"] = self.tag[captured_pairs(self.pairs)]
-        if self.well is not None:
             return State(**fields, check_overlaps=False)
         state = State.trusted(**fields)
         if checked:
             state.check()
         return state
+
+    def view(self, t: float | None = None) -> StateView:
+        """The state at absolute time ``t`` (default: now) as a :class:`~edmd.state.StateView`:
+        each per-particle field made from the engine when it is read; readable until the engine
+        processes another event or reloads."""
+        t = self.now if t is None else t
+        fixed, makers = self._fields(t)
+        mark = (int(self.cnt[L.C_EVENTS]), self.t_origin, id(self.part))
+        return StateView.of(self.n, self.dim, fixed, makers, lambda: (int(self.cnt[L.C_EVENTS]), self.t_origin, id(self.part)) == mark)
 
     def shear_offset(self, t: float) -> float:
         """The offset of the Lees-Edwards images above the box at absolute time ``t`` (0 without shear),

@@ -98,6 +98,10 @@ class Observer:
     #: whether :meth:`observe` reads its ``state`` argument (``None`` is passed otherwise: a
     #: checkpoint takes its own after a resync, and the copy of every particle is not kept for it)
     needs_state = True
+    #: whether :meth:`observe` reads its state only while it runs (keeps nothing of it): such
+    #: observers, when no other due then needs a copy, get a :class:`~edmd.state.StateView`
+    #: (fields made when read) instead of a copy of every particle
+    reads_once = False
 
     def __init__(self, interval: float, start: float | None = None):
         if not interval > 0 or not math.isfinite(interval):

@@ -18,7 +18,7 @@ from ..physics.emdstar import EMDStar
 from .._core import layout as L
 from .engine import Engine, EngineError, EngineOptions, Saved
 from .observer import Observer, Totals
-from ..state import State
+from ..state import State, StateView
 from ..physics.thermostats import Andersen, WhiteNoise, driver_from_dict
 from ..physics.vibration import VibratingWall
 from ..physics.shear import Shear
@@ -150,6 +150,21 @@ class Simulation:
             new.check_no_overlap()
         self._engine.load(new)
         self._time = float(new.time)
+
+    def state_view(self) -> StateView:
+        """The state at the current time as a :class:`~edmd.state.StateView`: each per-particle
+        field is made when read (a new array at every read), and none is copied before; readable
+        until the simulation goes on. For reading a few fields of a large system without a copy
+        of every particle (:attr:`state` makes one).
+
+        Example:
+            >>> import edmd
+            >>> sim = edmd.Simulation(edmd.maxwell_boltzmann(edmd.lattice(64, 0.2), 1.0, seed=1))
+            >>> sim.run(until_time=1.0)
+            >>> bool((sim.state_view().velocity == sim.state.velocity).all())
+            True
+        """
+        return self._engine.view(self._time)
 
     @property
     def engine(self) -> Engine:
@@ -288,16 +303,19 @@ class Simulation:
         due = sorted((o for o in self.observers if o.next_time <= self._time), key=lambda o: o.priority)
         if due:
             # one copy of the state for the observers that read it, dropped after the last of
-            # them (a checkpoint, last, makes its own: two at once would double the peak)
-            last_reader = max((k for k, o in enumerate(due) if o.needs_state), default=-1)
-            state = self.state if last_reader >= 0 else None
+            # them (a checkpoint, last, makes its own: two at once would double the peak); a
+            # view instead if they all read it only while they fire
+            readers = [k for k, o in enumerate(due) if o.needs_state]
+            last_reader = max(readers, default=-1)
+            take = self.state_view if all(due[k].reads_once for k in readers) else lambda: self.state
+            state = take() if last_reader >= 0 else None
             totals = self.totals()
             for k, o in enumerate(due):
                 if k > last_reader:
                     state = None
                 o.fire(self, state, totals)
                 if o.changes_state:  # the observers after it see the changed system
-                    state = self.state if k < last_reader else None
+                    state = take() if k < last_reader else None
                     totals = self.totals()
 
     # ------------------------------------------------------------------ running
