@@ -136,9 +136,10 @@ def test_bad_sweep_files_are_named(text, match):
 
 
 def test_emd_exception_map_example_expands_to_the_fig7_grid():
-    # NEEDS ISSUE 5: the eMD* keys of this example do not validate yet; when they do, also
-    # check `SweepSpec.load(...).resolve()` here.
     spec = SweepSpec.load(EXAMPLES / "emd_exception_map.toml")
+    resolved = spec.resolve()  # (every point validates as an eMD* configuration)
+    assert len({p.id for p in resolved}) == 35
+    assert [(p.config.system.packing_fraction, p.config.collision.young) for p in resolved[:6]] == [(0.005, y) for y in (1e7, 1e8, 1e9, 1e10, 6.3e10)] + [(0.01, 1e7)]
     points = spec.expand()
     young = [1e7, 1e8, 1e9, 1e10, 6.3e10]
     eta = [0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.3]
