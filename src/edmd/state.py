@@ -61,6 +61,21 @@ def _is_filled(arr) -> bool:
     return isinstance(arr, np.ndarray) and arr.size > 0 and not any(arr.strides)
 
 
+#: rows per block of the sums over particles (:func:`_by_blocks`)
+SUM_BLOCK = 65536
+
+
+def _by_blocks(f, *arrays):
+    """``f`` of the arrays' rows, summed over blocks of :data:`SUM_BLOCK` rows: their temporaries
+    are those of one block (a sum over 1e7 particles took 3 more arrays of every particle). Up to
+    one block, ``f`` of all rows itself (bit for bit)."""
+    n = len(arrays[0])
+    total = f(*(a[:SUM_BLOCK] for a in arrays))
+    for start in range(SUM_BLOCK, n, SUM_BLOCK):
+        total = total + f(*(a[start : start + SUM_BLOCK] for a in arrays))
+    return total
+
+
 def _field(name, value, default, shape):
     """A float field: ``default`` everywhere (:func:`filled`) when ``value`` is ``None``, a
     :func:`filled` constant kept (its one value checked), anything else a checked copy."""
@@ -445,14 +460,14 @@ class State:
 
     def kinetic_energy(self) -> float:
         """Translational kinetic energy (of the committed velocities)."""
-        return 0.5 * float(np.sum(self.mass[:, None] * self._committed() ** 2))
+        return 0.5 * float(_by_blocks(lambda m, v: np.sum(m[:, None] * v**2), self.mass, self._committed()))
 
     def rotational_energy(self) -> float:
         """Rotational kinetic energy."""
-        w2 = self.angular_velocity**2
-        if self.dim == 3:
-            w2 = w2.sum(axis=1)
-        return 0.5 * float(np.sum(self.inertia * w2))
+        w = self.angular_velocity
+        if _is_filled(w) and not w.flat[0]:  # (no spins: nothing to square)
+            return 0.0
+        return 0.5 * float(_by_blocks(lambda inertia, w: np.sum(inertia * (w**2 if w.ndim == 1 else (w**2).sum(axis=1))), self.inertia, w))
 
     def rotational_temperature(self) -> float:
         r"""Rotational temperature :math:`T_{\rm rot} = \frac{1}{d_r N}\sum_i I_i\omega_i^2` (:math:`d_r` = 3 in 3D, 1 in 2D)."""
@@ -466,12 +481,13 @@ class State:
 
     def momentum(self) -> np.ndarray:
         """Total linear momentum (of the committed velocities)."""
-        return (self.mass[:, None] * self._committed()).sum(axis=0)
+        return _by_blocks(lambda m, v: (m[:, None] * v).sum(axis=0), self.mass, self._committed())
 
     def temperature(self) -> float:
         r"""Translational granular temperature :math:`T = \frac{1}{dN}\sum_i m_i|\mathbf v_i-\mathbf u|^2` (:math:`k_B=1`)."""
-        u = self.momentum() / self.mass.sum()
-        return float(np.sum(self.mass[:, None] * (self._committed() - u) ** 2) / (self.dim * self.n))
+        mass = self.mass
+        u = self.momentum() / mass.sum()
+        return float(_by_blocks(lambda m, v: np.sum(m[:, None] * (v - u) ** 2), mass, self._committed()) / (self.dim * self.n))
 
     def copy(self) -> State:
         """Deep copy."""
