@@ -9,7 +9,6 @@ so a 1 % tolerance is tight but safe.
 
 import math
 
-import numpy as np
 import pytest
 
 import edmd

@@ -29,7 +29,7 @@ def test_sheared_viscosity_equals_einstein_helfand(tmp_path, density):
     sim = edmd.Simulation(shear.with_profile(start), shear=shear)
     sim.add(edmd.VelocityRescale(kT=1.0, interval=0.5))
     thermo = sim.add(edmd.Thermo(interval=0.5))
-    frames = sim.add(edmd.Trajectory(tmp_path / "t.gsd", interval=20.0))
+    sim.add(edmd.Trajectory(tmp_path / "t.gsd", interval=20.0))  # (a sheared trajectory is written along)
     sim.run(until_time=2050.0)
     sim.close()
     flow = ShearFlow(0.1, settle=50.0).compute(thermo, sim.state)
