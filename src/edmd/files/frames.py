@@ -44,7 +44,22 @@ def _digest(data: np.ndarray) -> bytes:
     return h.digest()
 
 
-class FrameWriter:
+class _GSDFile:
+    """An open GSD file (``_file``), closed by :meth:`close` or at the end of a ``with`` block."""
+
+    _file: gsd.fl.GSDFile
+
+    def close(self):
+        self._file.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+class FrameWriter(_GSDFile):
     """Append frames to a HOOMD-schema GSD file, chunk by chunk (see the module documentation).
 
     ``mode`` is ``"w"`` (a new file) or ``"a"`` (append; created if missing). Every frame is
@@ -85,17 +100,8 @@ class FrameWriter:
         self._file.end_frame()
         self._file.flush()
 
-    def close(self):
-        self._file.close()
 
-    def __enter__(self) -> FrameWriter:
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
-
-
-class FrameReader:
+class FrameReader(_GSDFile):
     """Read the chunks of a GSD file one at a time, as ``gsd.hoomd`` reads them: a chunk missing
     from a frame is frame 0's (a per-particle chunk only when frame 0 has as many particles).
 
@@ -143,15 +149,6 @@ class FrameReader:
     def names(self, prefix: str) -> list[str]:
         """The names of the file's chunks that start with ``prefix``, sorted."""
         return sorted(self._file.find_matching_chunk_names(prefix))
-
-    def close(self):
-        self._file.close()
-
-    def __enter__(self) -> FrameReader:
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
 
 
 def copy_frames(src: str | os.PathLike, dst: FrameWriter, frames: int):

@@ -979,8 +979,12 @@ class Engine:
         processes another event or reloads."""
         t = self.now if t is None else t
         fixed, makers = self._fields(t)
-        mark = (int(self.cnt[L.C_EVENTS]), self.t_origin, id(self.part))
-        return StateView.of(self.n, self.dim, fixed, makers, lambda: (int(self.cnt[L.C_EVENTS]), self.t_origin, id(self.part)) == mark)
+
+        def mark():  # (what changes when the engine processes an event or reloads)
+            return int(self.cnt[L.C_EVENTS]), self.t_origin, id(self.part)
+
+        made = mark()
+        return StateView.of(self.n, self.dim, fixed, makers, lambda: mark() == made)
 
     def shear_offset(self, t: float) -> float:
         """The offset of the Lees-Edwards images above the box at absolute time ``t`` (0 without shear),
