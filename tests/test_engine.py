@@ -283,11 +283,11 @@ def test_engine_memory_per_particle(dim, mode):
 
 @pytest.mark.parametrize("mode", ["cells", "list"])
 def test_a_resync_needs_less_than_a_state_beyond_the_run(mode):
-    """A maintenance resync rebuilds the engine from a snapshot: the event, calendar, cell and list
-    arrays go before the snapshot is made, and the load drops the snapshot's positions, velocities
-    and images as it copies them. Before, the snapshot (96 B per particle) and its transients
-    came on top of the whole engine: +135-145 B per particle above the run (+48 at N = 1e6 above
-    the set-up's peak, benchmarks/README.md "Memory")."""
+    """A maintenance resync rebuilds the engine in place: the event, calendar, cell and list arrays
+    go first, and the rows are streamed and sorted in place (no snapshot). With a snapshot (96 B
+    per particle) on top of the whole engine it took +135-145 B per particle above the run, then
+    +63-67 with the arrays dropped first and the snapshot handed over to the load; in place 39-49
+    (the rebuild's transients: the calendar's sorted keys, the lists' count)."""
     n = 8000
     s = edmd.maxwell_boltzmann(edmd.lattice(n, 0.5), 1.0, seed=2)
     edmd.Simulation(s, engine={"neighbours": mode}).run(max_events=100)  # (compiled before tracing)
@@ -301,7 +301,61 @@ def test_a_resync_needs_less_than_a_state_beyond_the_run(mode):
         peak = tracemalloc.get_traced_memory()[1] - before
     finally:
         tracemalloc.stop()
-    assert peak <= 96 * n, f"the resync took {peak / n:.0f} B per particle beyond the run"
+    assert peak <= 56 * n, f"the resync took {peak / n:.0f} B per particle beyond the run"
+
+
+def _engine_arrays(e) -> dict[str, np.ndarray]:
+    """Every array of an engine (its bundles' fields, the tag, counters and accumulators) and its
+    other attributes as reprs, for bit-for-bit comparisons."""
+    out = {"tag": e.tag, "acc": e.acc, "cnt": e.cnt}
+    for name in ("part", "ev", "q", "grid", "lists", "emd", "drive", "pairs"):
+        out.update({f"{name}.{field}": a for field, a in zip(getattr(e, name)._fields, getattr(e, name))})
+    out.update({k: np.array([repr(v)]) for k, v in vars(e).items() if isinstance(v, (int, float, tuple, str, bool))})
+    return out
+
+
+def _in_place_case(dim, case):
+    periodic = [True] * (dim - 1) + [case not in ("walls", "soft_walls_gravity")]
+    s = edmd.maxwell_boltzmann(edmd.random_packing(300, 0.3, dim=dim, periodic=periodic, seed=2), 1.0, seed=3, spin=case == "rough")
+    down = [0.0] * (dim - 1) + [-0.5]
+    soft = EMDStar(edmd.Hertz(young=2e3, poisson=0.3, A=2e-3))
+    kw = {
+        "rough": {"collision": edmd.collide.Rough(0.9, -0.5)},
+        "tc": {"collision": edmd.collide.TC(edmd.collide.Inelastic(0.8), duration=1e-3)},
+        "walls": {"e_n": 0.9},
+        "soft": {"collision": soft},
+        "soft_walls_gravity": {"collision": soft, "gravity": down},
+        "shear": {"shear": edmd.Shear(1.0), "e_n": 0.9},
+        "bath_and_kicks": {"e_n": 0.9, "thermostat": edmd.Andersen(kT=1.0, rate=0.5, seed=4), "forcing": edmd.WhiteNoise(xi0=1.0, interval=0.05, seed=3)},
+    }[case]
+    return (kw["shear"].with_profile(s) if "shear" in kw else s), kw
+
+
+@pytest.mark.parametrize("mode", MODES)
+@pytest.mark.parametrize("case", ["rough", "tc", "walls", "soft", "soft_walls_gravity", "shear", "bath_and_kicks"])
+def test_a_resync_in_place_makes_the_arrays_a_reload_of_its_snapshot_makes(dim, mode, case, monkeypatch):
+    """A resync streams the rows to its time and sorts them in place (no snapshot of every
+    particle): every engine array must be bit for bit what a load of the snapshot makes, which a
+    restart from a checkpoint at that time also makes. Several resyncs in a row, with an origin
+    other than 0 (the local time of the snapshot is ``(origin + now) - origin``)."""
+    s, kw = _in_place_case(dim, case)
+    if mode == "cells" and "gravity" in kw:
+        kw["engine"] = {"neighbours": mode, "cell_size": 1.5}  # (automatic cells under gravity follow the bed: a reload)
+    else:
+        kw["engine"] = {"neighbours": mode}
+    sims = [edmd.Simulation(s, **kw), edmd.Simulation(s, **kw)]
+    in_place = edmd.run.engine.Engine._rebases_in_place
+    assert in_place(sims[0].engine)
+    for _ in range(3):
+        for sim, way in zip(sims, (in_place, lambda self: False)):
+            monkeypatch.setattr(edmd.run.engine.Engine, "_rebases_in_place", way)
+            sim.run(max_events=2500)
+            sim.engine.resync()
+        a, b = (_engine_arrays(sim.engine) for sim in sims)
+        assert sims[0].engine.t_origin > 0.0 and a.keys() == b.keys()
+        assert not [k for k in a if not (a[k].dtype == b[k].dtype and a[k].shape == b[k].shape and a[k].tobytes() == b[k].tobytes())]
+    if isinstance(kw.get("collision"), EMDStar):
+        assert sims[0].engine.emd_counters()["emd_contacts"] > 100 and sims[0].state.has_pending
 
 
 def test_a_fault_found_by_a_resync_stops_the_engine_with_the_state_readable():

@@ -1,14 +1,43 @@
 """Non-disturbing observation: stream copies of all particles to one instant."""
 
+import math
+
 import numpy as np
-from .jit import jit_alloc
+from .jit import jit, jit_alloc, leaf
 
 from .images import fold_face
+from .layout import R, T, VX, VY, VZ, X, Y, Z
 from .predict import flight
 
 
 #: what :func:`stream_all` makes: positions, velocities, images (a mask)
 POSITIONS, VELOCITIES, IMAGES = 1, 2, 4
+
+
+@leaf
+def _wrapped(x, m, length, half):
+    """``x`` wrapped into ``[-half, half)`` along a periodic axis (``half = inf``: a walled axis,
+    left as it is) and the image count ``m`` moved along with it."""
+    if half < np.inf:
+        while x >= half:
+            x -= length
+            m += 1
+        while x < -half:
+            x += length
+            m -= 1
+    return x, m
+
+
+@leaf
+def streamed(P, image, i, t, geo):
+    """Particle ``i`` at local time ``t``: its position wrapped into the box, its velocity and its
+    image counts (physics.md §1.1, free flight; a sheared box folds it through the sliding y face)."""
+    x, y, z, vx, vy, vz = flight(P, i, t, geo)
+    x, y, vx, across = fold_face(x, y, vx, t, geo)
+    x, mx = _wrapped(x, np.int64(image[i, 0]), geo[0], geo[3])
+    y, my = _wrapped(y, np.int64(image[i, 1]) + across, geo[1], geo[4])
+    z, mz = _wrapped(z, np.int64(image[i, 2]), geo[2], geo[5])
+    return x, y, z, vx, vy, vz, mx, my, mz
 
 
 @jit_alloc
@@ -26,26 +55,44 @@ def stream_all(P, image, tag, t, d, geo, which):
     vel = np.empty((n if which & VELOCITIES else 0, d))
     img = np.empty((n if which & IMAGES else 0, d), np.int64)
     for i in range(n):
-        x, y, z, vx, vy, vz = flight(P, i, t, geo)
-        x, y, vx, across = fold_face(x, y, vx, t, geo)  # (sheared box: through the sliding y face)
+        x, y, z, vx, vy, vz, mx, my, mz = streamed(P, image, i, t, geo)
         r = (x, y, z)
         v = (vx, vy, vz)
+        m = (mx, my, mz)
         u = tag[i]
         for k in range(d):
-            xk = r[k]
-            m = image[i, k] + (across if k == 1 else 0)
-            length, half = geo[k], geo[3 + k]
-            if half < np.inf:
-                while xk >= half:
-                    xk -= length
-                    m += 1
-                while xk < -half:
-                    xk += length
-                    m -= 1
             if which & POSITIONS:
-                pos[u, k] = xk
+                pos[u, k] = r[k]
             if which & IMAGES:
-                img[u, k] = m
+                img[u, k] = m[k]
             if which & VELOCITIES:
                 vel[u, k] = v[k]
     return pos, vel, img
+
+
+@jit
+def stream_rows(P, image, t, d, geo, reach, lo):
+    """Stream every row to local time ``t`` in place: the positions, velocities and images that
+    :func:`stream_all` makes, in the engine's order, each row's own time set to ``t`` (a resync
+    that rebuilds from the engine's own arrays, :meth:`edmd.run.engine.Engine.resync`).
+
+    Returns the first particle whose position or velocity is not finite or which lies outside
+    the box (:meth:`edmd.state.State.check`'s test: ``x - reach[k] r < -lo[k]`` or
+    ``x + reach[k] r > lo[k]``, ``reach`` 0 along periodic axes and 1 along walled ones), else -1.
+    """
+    bad = -1
+    for i in range(P.shape[0]):
+        x, y, z, vx, vy, vz, mx, my, mz = streamed(P, image, i, t, geo)
+        P[i, X], P[i, Y], P[i, VX], P[i, VY], P[i, T] = x, y, vx, vy, t
+        image[i, 0], image[i, 1] = mx, my
+        if d == 3:
+            P[i, Z], P[i, VZ], image[i, 2] = z, vz, mz
+        if bad < 0:
+            r = P[i, R]
+            ok = math.isfinite(x) and math.isfinite(y) and math.isfinite(z) and math.isfinite(vx) and math.isfinite(vy) and math.isfinite(vz)
+            at = (x, y, z)
+            for k in range(d):
+                ok = ok and not (at[k] - reach[k] * r < -lo[k] or at[k] + reach[k] * r > lo[k])
+            if not ok:
+                bad = i
+    return bad

@@ -28,7 +28,7 @@ from .._core.jit import in_disk_cache
 from .._core.loop import GEO_ARG, integrate_kinetic, loop_variant
 from .._core.wallmotion import rider_axis
 from .._core.queue import QI_MOVED, calendar_shape, new_queue, queue_build
-from .._core.snapshot import IMAGES, POSITIONS, VELOCITIES, stream_all
+from .._core.snapshot import IMAGES, POSITIONS, VELOCITIES, stream_all, stream_rows
 from .._core.nblist import list_reach
 from .._core.wells import capture_by_distance, captured_pairs, load_captured, well_reach
 from ..physics import collide
@@ -117,10 +117,9 @@ AUTO_THRESHOLD = {2: 0.6, 3: 0.35}
 AUTO_BIG_RATIO = 3.0
 
 
-def _species(state: State) -> list[tuple[float, float]] | None:
-    """The distinct ``(mass, radius)`` of the particles if there are at most
+def _species(m: np.ndarray, r: np.ndarray) -> list[tuple[float, float]] | None:
+    """The distinct ``(mass, radius)`` of particles of masses ``m`` and radii ``r`` if there are at most
     :data:`~edmd.physics.tables.PAIR_SPECIES` (else ``None``): the species whose pairs get pair tables."""
-    m, r = state.mass, state.radius
     if m.size and m.min() == m.max() and r.min() == r.max():
         return [(float(m[0]), float(r[0]))]
     masses, radii = np.unique(m), np.unique(r)
@@ -163,6 +162,15 @@ class Saved:
     accumulators: np.ndarray
     list_capacity: int
     take_state: bool = False
+
+
+def _permuted(a: np.ndarray, perm: np.ndarray) -> np.ndarray:
+    """``a`` with its rows in the order ``perm`` (row ``j`` was row ``perm[j]``), in place: a column
+    at a time, so that the copy made is one column's."""
+    columns = a.reshape(len(a), -1) if len(a) else a
+    for c in range(columns.shape[1] if len(a) else 0):
+        columns[:, c] = columns[perm, c]
+    return a
 
 
 class EngineError(RuntimeError):
@@ -537,7 +545,7 @@ class Engine:
             self._choose_neighbours(state)  # (the radii have grown: cells of the list grid, skin, capacity)
         elif new and _radii_key(state.radius) != self._chosen_for:  # (other radii: larger ones need larger cells or lists)
             self._neighbours_for(state)
-        elif self.mode == "cells" and self.options.cell_size is None and np.any(self.grav != 0.0):
+        elif self._cells_follow_density():
             sigma_max, periodic_len, periodic3 = self._grid_ranges(state)  # (a bed settles or lifts: the cells follow its density)
             cells = self._cells(state, sigma_max, periodic_len, periodic3, self._big_split(state, periodic_len, periodic3))
             if cells is not None:
@@ -564,7 +572,7 @@ class Engine:
         if take:
             state.position = state.velocity = state.image = None
         self.part = Particles(P, state.mass[order], *self._spins(state, order), image, np.zeros(n, np.int32), self._tc_times(state, order))
-        self.emd = emd_bundle(n if self.emd_rule is not None else 0, self.emd_rule, pending, self.dim, _species(state) if self.emd_rule is not None else None)
+        self._new_emd(pending, state.mass, state.radius)
         self.ev = new_events(n)
         self.pairs = new_pairs(n, captures)
         self._derive_captures = self.well is not None and state.captured_pairs is None
@@ -574,6 +582,17 @@ class Engine:
         self._rebuild()
         if new and self.well is not None and not self._derive_captures:
             self._check_captured(state)
+
+    def _cells_follow_density(self) -> bool:
+        """Whether a load chooses the cells again: cells of the automatic size under gravity (a bed
+        settles or lifts, and the cells follow its density)."""
+        return self.mode == "cells" and self.options.cell_size is None and bool(np.any(self.grav != 0.0))
+
+    def _new_emd(self, pending, mass: np.ndarray, radius: np.ndarray):
+        """The eMD* bundle with the ``pending`` contacts (internal order, see :meth:`_pending_arrays`)
+        of particles of masses ``mass`` and radii ``radius`` (any order; the bundle of size 0 without eMD*)."""
+        soft = self.emd_rule is not None
+        self.emd = emd_bundle(self.n if soft else 0, self.emd_rule, pending, self.dim, _species(mass, radius) if soft else None)
 
     def _load_riders(self, state: State, order: np.ndarray, P: np.ndarray) -> float:
         """Mark in ``P`` (internal order) the particles of ``state`` that go on riding on the
@@ -598,10 +617,8 @@ class Engine:
         a smooth rule at a wall and between particles, and no spin in ``state`` (32 bytes per
         particle that most runs never read). Snapshots then give zero spins and the default
         moments of inertia; a state with other spins or moments keeps them."""
-        rough = self.ip[L.IP_TANGENT] != L.TANGENT_SMOOTH or self.ip[L.IP_WALL_TANGENT] != L.TANGENT_SMOOTH
         w = state.angular_velocity
-        if not rough and not np.any(w) and self.growth is None and np.array_equal(state.inertia, default_inertia(state.mass, state.radius, self.dim)):
-            # (growing radii keep the moments they were loaded with)
+        if not self._turns(w, state.inertia, state.mass, state.radius):
             return np.zeros((0, 3)), np.zeros(0)
         omega = np.zeros((self.n, 3))
         if self.dim == 3:
@@ -611,13 +628,25 @@ class Engine:
             omega[:, 2] = w[order]
         return omega, state.inertia[order]
 
+    def _turns(self, w: np.ndarray, inertia: np.ndarray, mass: np.ndarray, radius: np.ndarray) -> bool:
+        """Whether the engine keeps spins and moments of inertia: a rough rule (at a wall or between
+        particles), spins ``w``, moments ``inertia`` other than the default of ``mass`` and
+        ``radius``, or growing radii (which keep the moments they were loaded with)."""
+        rough = self.ip[L.IP_TANGENT] != L.TANGENT_SMOOTH or self.ip[L.IP_WALL_TANGENT] != L.TANGENT_SMOOTH
+        return bool(rough or np.any(w) or self.growth is not None or not np.array_equal(inertia, default_inertia(mass, radius, self.dim)))
+
     def _tc_times(self, state: State, order: np.ndarray) -> np.ndarray:
         """Local times of the last collisions, or an array of size 0 when the TC model is off and
         ``state`` has none (nothing would read or change them: their snapshots give ``-inf``)."""
         last = state.last_collision
-        if not self.ip[L.IP_TC] and np.all(last == -np.inf):
+        if not self._keeps_last(last):
             return np.zeros(0)
         return last[order] - self.t_origin
+
+    def _keeps_last(self, last: np.ndarray) -> bool:
+        """Whether the engine keeps the times ``last`` of the last collisions: the TC model reads
+        them, or some particle has collided."""
+        return bool(self.ip[L.IP_TC]) or not np.all(last == -np.inf)
 
     def _new_drive(self) -> Drive:
         """The bath's events and the timers after a load at ``t_origin`` (off: every time ``inf``)."""
@@ -717,14 +746,19 @@ class Engine:
 
     def _spatial_order(self, state: State):
         """Deterministic spatial sort (cell index, then original index) for memory locality."""
+        return np.argsort(self._cell_keys(lambda k: state.position[:, k]), kind="stable")
+
+    def _cell_keys(self, column) -> np.ndarray:
+        """The (row-major) index of the cell of each particle; ``column(k)``: the particles'
+        coordinates along axis ``k``."""
         nc = self.grid_cells
-        c = np.zeros(state.n, np.int64)
+        c = np.zeros(self.n, np.int64)
         for k in range(self.dim):
             if nc[k] > 1:
-                ck = np.floor((state.position[:, k] + 0.5 * self.box[k]) / (self.box[k] / nc[k])).astype(np.int64)
+                ck = np.floor((column(k) + 0.5 * self.box[k]) / (self.box[k] / nc[k])).astype(np.int64)
                 c *= nc[k]
                 c += np.clip(ck, 0, nc[k] - 1)
-        return np.argsort(c, kind="stable")
+        return c
 
     def _rebuild(self):
         """Bin, build neighbour lists and the calendar for particles all at local time 0."""
@@ -868,11 +902,14 @@ class Engine:
         """
         local = float(self.acc[L.A_NOW]) if t is None else float(t) - self.t_origin
         at = self.now if t is None else float(t)
-        # what the load rebuilds from the particles alone goes before the snapshot is made (at
-        # N = 1e6 the resync peaked 48 B per particle above the set-up with them), and the
-        # snapshot is handed over to the load
+        # what the load rebuilds from the particles alone goes before the rows are streamed or the
+        # snapshot is made (at N = 1e6 the resync peaked 48 B per particle above the set-up with them)
         self.ev = self.q = self.grid = self.lists = self.drive = None
-        try:
+        if self._rebases_in_place() and self._streamed_sound(at - self.t_origin):  # (the snapshot's local time)
+            self._close(local)
+            self._rebase(at)
+            return
+        try:  # (the snapshot's way, handed over to the load: drivers whose load reads the state, or a fault)
             state = self.snapshot(at, checked=True)
         except StateError as exc:  # (a fault: the state stays readable, the engine cannot go on)
             self._fault = str(exc)
@@ -888,9 +925,102 @@ class Engine:
         """Close the collision log and the kinetic-energy integral at local time ``local`` (the
         time of ``state``) and rebuild every array from ``state`` (``take``: the engine's own
         snapshot, handed over to the load, see :meth:`load`)."""
+        self._close(local)
+        self.load(state, new=False, take=take)
+
+    def _close(self, local: float):
+        """Close the collision log and the kinetic-energy integral at local time ``local``."""
         self._flush_log()
         integrate_kinetic(self.acc, local, self.geo, self.fp[L.FP_MTOT])
-        self.load(state, new=False, take=take)
+
+    def _rebases_in_place(self) -> bool:
+        """Whether a resync rebuilds from the engine's own arrays (:meth:`_rebase`): not when a load
+        reads more of the state (growing radii, a vibrating wall's riders, square wells' captures,
+        cells that follow a bed's density)."""
+        return self.growth is None and self.vibration is None and self.well is None and not self._cells_follow_density()
+
+    def _streamed_sound(self, local: float) -> bool:
+        """Stream the rows to local time ``local`` in place (:func:`~edmd._core.snapshot.stream_rows`)
+        and tell whether they, the spins, the last collisions and the pending contacts hold what
+        :meth:`State.check <edmd.state.State.check>` accepts (else the resync's snapshot names the
+        fault: the rows streamed to ``local`` are still the state at ``local``)."""
+        reach = np.zeros(3)
+        lo = np.full(3, np.inf)
+        for k in range(self.dim):
+            reach[k] = 0.0 if self.periodic[k] else 1.0
+            lo[k] = 0.5 * self.box_user[k] * (1.0 + 2e-12)
+        p, e = self.part, self.emd
+        if stream_rows(p.rows, p.image, local, self.dim, self.geo, reach, lo) >= 0:
+            return False
+        last = p.last_collision
+        return bool(np.isfinite(p.omega).all() and np.isfinite(e.pending_dv).all() and not np.isnan(e.pending_until).any() and not np.any(np.isnan(last) | (last == np.inf)))
+
+    def _rebase(self, at: float):
+        """Re-base the clock at absolute time ``at`` and rebuild from the rows streamed there
+        (:meth:`_streamed_sound`): the arrays that :meth:`load` makes of the snapshot at ``at``, bit
+        for bit, without making it. The rows are put in spatial order in place, a column at a time
+        (a resync then needs no copy of every particle)."""
+        t_old = self.t_origin
+        self._shear_offset = self.shear_offset(at)
+        self.t_origin = at
+        self.geo = self._geometry(at)
+        perm = self._new_order()
+        pending = self._pending_moved(perm, t_old)
+        self.part = self._particles_moved(perm, t_old)
+        del perm  # (before the rebuild)
+        self._new_emd(pending, self.part.mass, self.part.rows[:, L.R])
+        self.ev = new_events(self.n)
+        self.pairs = new_pairs(self.n, 0)
+        self.drive = self._new_drive()
+        self._rebuild()
+
+    def _new_order(self) -> np.ndarray:
+        """Sort the particles the load's way (cell index, then user index: :meth:`_spatial_order`),
+        set the new tags and return the permutation of the rows (new row ``j`` is old row ``perm[j]``)."""
+        rows, n = self.part.rows, self.n
+        keys = np.empty(n, np.int64)
+        keys[self.tag] = self._cell_keys(lambda k: rows[:, k])  # (in the user's order)
+        order = np.argsort(keys, kind="stable")
+        del keys
+        index = np.empty(n, np.int32)
+        index[self.tag] = np.arange(n, dtype=np.int32)
+        self.tag = order.astype(np.int32)
+        return index[order]
+
+    def _particles_moved(self, perm: np.ndarray, t_old: float) -> Particles:
+        """The particles in the rows' new order ``perm``, permuted in place, local times from the new
+        origin (own times 0, last collisions shifted as a snapshot and a load shift them), spins and
+        last collisions kept or dropped as :meth:`_spins` and :meth:`_tc_times` decide."""
+        p = self.part
+        rows, mass = _permuted(p.rows, perm), _permuted(p.mass, perm)
+        rows[:, L.T] = 0.0
+        omega, inertia = p.omega, p.inertia
+        if len(omega) and not self._turns(omega[:, 2] if self.dim == 2 else omega, inertia, mass, rows[:, L.R]):
+            omega, inertia = np.zeros((0, 3)), np.zeros(0)
+        if self.dim == 2:
+            omega[:, :2] = 0.0
+        last = p.last_collision
+        last += t_old  # (the snapshot's time, then the load's local time)
+        last -= self.t_origin
+        if not self._keeps_last(last):
+            last = np.zeros(0)
+        return Particles(rows, mass, _permuted(omega, perm), _permuted(inertia, perm), _permuted(p.image, perm), np.zeros(self.n, np.int32), _permuted(last, perm))
+
+    def _pending_moved(self, perm: np.ndarray, t_old: float):
+        """The pending eMD* contacts in the rows' new order ``perm`` (see :meth:`_rebase`) and local
+        times from the new origin, as :meth:`_pending_arrays` makes them of a snapshot (``None``:
+        nothing pending)."""
+        e = self.emd
+        if not np.any(e.partner >= 0):
+            return None
+        dv = e.pending_dv[perm]
+        dv[:, self.dim :] = 0.0
+        until = e.pending_until + t_old
+        until -= self.t_origin
+        moved = np.empty(self.n, np.int32)
+        moved[perm] = np.arange(self.n, dtype=np.int32)
+        partner = e.partner[perm]
+        return dv, until[perm], np.where(partner >= 0, moved[np.maximum(partner, 0)], -1).astype(np.int32)
 
     def _restore(self, state: State, saved: Saved):
         """Load ``state`` with the counters, accumulators and list capacity saved right after a
