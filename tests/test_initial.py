@@ -188,3 +188,16 @@ def test_replicate_refuses_walls_and_bad_counts(dim):
         replicate(walled, [2.5] * dim)
     with pytest.raises(StateError, match="replicate needs"):
         replicate(walled, [0] * dim)
+
+
+def test_one_radius_and_mass_are_kept_as_one(dim):
+    """Monodisperse packings keep their radius, mass and moment of inertia as one number (no
+    memory per particle), through replicate and maxwell_boltzmann; polydisperse ones as arrays."""
+    mono = edmd.maxwell_boltzmann(edmd.replicate(edmd.random_packing(100, 0.2, dim=dim, seed=1), [2] * dim), 1.0, seed=2)
+    for s in (edmd.lattice(100, 0.3, dim=dim), edmd.random_packing(100, 0.2, dim=dim, seed=1), mono):
+        assert all(not any(getattr(s, f).strides) for f in ("radius", "mass", "inertia"))
+    poly = edmd.random_packing(100, 0.2, dim=dim, seed=1, radius={"kind": "uniform", "min": 0.4, "max": 0.6})
+    assert all(getattr(poly, f).strides == (8,) for f in ("radius", "inertia")) and np.ptp(poly.radius) > 0
+    assert not any(poly.mass.strides)  # (one mass: the default 1)
+    dense = edmd.random_packing(100, 0.2, dim=dim, seed=1, radius={"kind": "uniform", "min": 0.4, "max": 0.6}, density=1.0)
+    assert dense.mass.strides == (8,) and np.ptp(dense.mass) > 0

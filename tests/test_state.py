@@ -190,6 +190,26 @@ def test_check_names_a_nan_spin_of_a_trusted_state(dim):
         State.trusted(**{**fields, "last_collision": np.array([0.0, np.inf])}, angular_velocity=np.zeros_like(w)).check()
 
 
+def test_one_radius_mass_or_moment_takes_no_memory_and_the_arrays_values_bit_for_bit(dim):
+    """Radii, masses and moments of inertia given as one number (or a broadcast constant) are kept
+    as one (8 bytes per particle each at 1e6, benchmarks/README.md "Memory"), read-only, with the
+    values and the default moments that arrays of them give; arrays stay writable copies."""
+    pos = edmd.lattice(64, 0.2, dim=dim).position
+    one = State(position=pos, velocity=np.zeros_like(pos), radius=0.5, mass=np.broadcast_to(2.0, (64,)), box=edmd.lattice(64, 0.2, dim=dim).box)
+    each = State(position=pos, velocity=np.zeros_like(pos), radius=np.full(64, 0.5), mass=np.full(64, 2.0), box=one.box)
+    for name in ("radius", "mass", "inertia"):
+        a, b = getattr(one, name), getattr(each, name)
+        assert a.shape == b.shape == (64,) and a.tobytes() == b.tobytes(), name
+        assert not any(a.strides) and not a.flags.writeable and b.strides == (8,) and b.flags.writeable, name
+    with pytest.raises(ValueError, match="read-only"):
+        one.radius[0] = 0.6
+    assert not any(one.copy().radius.strides) and one.kinetic_energy() == each.kinetic_energy() and one.packing_fraction == each.packing_fraction
+    with pytest.raises(StateError, match="radius must be positive: particle 0 has radius -0.5"):
+        State(position=pos, velocity=np.zeros_like(pos), radius=-0.5, mass=1.0, box=one.box)
+    with pytest.raises(StateError, match="mass is not finite"):
+        State(position=pos, velocity=np.zeros_like(pos), radius=0.5, mass=[np.nan], box=one.box)
+
+
 def test_radii_of_another_length_name_the_field():
     with pytest.raises(StateError, match=r"radius must be one number or 2 numbers \(one per particle\), got shape \(3,\)"):
         State(position=[[0.0, 0.0], [2.0, 0.0]], velocity=[[0.0, 0.0], [0.0, 0.0]], radius=[0.5, 0.5, 0.5], mass=1.0, box=[5.0, 5.0])

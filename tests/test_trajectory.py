@@ -272,3 +272,26 @@ def test_reading_a_state_holds_no_frame_beside_it(tmp_path):
     peak, r = _traced_peak(lambda: read_state(tmp_path / "s.gsd"))
     assert np.array_equal(r.image, s.image) and r.last_collision.strides == (0,)  # (defaults stay constants)
     assert peak <= 3 * own, f"reading took {peak / s.n:.0f} B per particle for a State of {own / s.n:.0f}"
+
+
+def test_one_radius_and_mass_read_back_as_one_and_a_short_chunk_is_still_refused(tmp_path, dim):
+    """A file of particles of one radius and mass reads back with them kept as one number (a
+    restart's State then holds no array of them); a radius chunk of another length than N is
+    still named, never taken for one radius."""
+    s = edmd.maxwell_boltzmann(edmd.lattice(64, 0.2, dim=dim), 1.0, seed=1)
+    write_state(tmp_path / "s.gsd", s)
+    back = read_state(tmp_path / "s.gsd")
+    for name in ("radius", "mass", "inertia"):
+        assert not any(getattr(back, name).strides) and getattr(back, name).tobytes() == getattr(s, name).tobytes(), name
+    chunks = {
+        "configuration/box": np.array([10.0, 10.0, 10.0, 0.0, 0.0, 0.0], np.float32),
+        "particles/N": np.array([2], np.uint32),
+        "particles/position": np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.0]], np.float32),
+        "particles/diameter": np.ones(3, np.float32),  # (three diameters for two particles)
+    }
+    with gsd.fl.open(tmp_path / "short.gsd", "w", application="test", schema="hoomd", schema_version=[1, 4]) as f:
+        for name, value in chunks.items():
+            f.write_chunk(name, value)
+        f.end_frame()
+    with pytest.raises(StateError, match=r"radius must be one number or 2 numbers"):
+        read_state(tmp_path / "short.gsd")

@@ -13,7 +13,7 @@ import numpy as np
 from ._core.geometry import random_insert, relax_overlaps
 from ._core.layout import make_geo
 from .run.neighbours import overlap_grid
-from .state import State, StateError
+from .state import State, StateError, _is_filled, one_if_equal
 
 LATTICES = {2: ("hex", "square"), 3: ("fcc", "sc")}
 #: closest packing fraction each lattice reaches with touching spheres
@@ -98,7 +98,7 @@ def _masses(r, dim, mass, density):
         return density * vol
     if not np.all(np.asarray(mass) > 0):
         raise StateError(f"mass must be positive, got {mass}")
-    return np.broadcast_to(np.asarray(mass, float), r.shape).copy()
+    return np.broadcast_to(np.asarray(mass, float), r.shape)  # (one mass: a State keeps it in no memory)
 
 
 def _check_counts(n, dim):
@@ -222,7 +222,7 @@ def lattice(
                 f"(they touch near packing fraction {eta_max:.4f}; n = {magic} fills the lattice exactly)"
             )
     m = _masses(r, dim, mass, density)
-    return State(position=pos, velocity=np.zeros_like(pos), radius=r, mass=m, box=box, periodic=periodic)
+    return State(position=pos, velocity=np.zeros_like(pos), radius=one_if_equal(r), mass=m, box=box, periodic=periodic)
 
 
 def random_packing(
@@ -295,7 +295,7 @@ def random_packing(
                 f"(random packings jam near 0.64 in 3D, 0.84 in 2D); use a lattice start"
             )
     m = _masses(r, dim, mass, density)
-    return State(position=pos3[:, :dim], velocity=np.zeros((n, dim)), radius=r, mass=m, box=box, periodic=periodic)
+    return State(position=pos3[:, :dim], velocity=np.zeros((n, dim)), radius=one_if_equal(r), mass=m, box=box, periodic=periodic)
 
 
 def replicate(state: State, counts: Sequence[int]) -> State:
@@ -337,8 +337,8 @@ def replicate(state: State, counts: Sequence[int]) -> State:
     pos = (state.position[None, :, :] + shift[:, None, :]).reshape(-1, state.dim)
     pos -= box * np.floor(pos / box + 0.5)  # (a copy that round-off put past a face comes back in, within an ulp)
 
-    def tiled(a):
-        return np.tile(a, (copies,) + (1,) * (a.ndim - 1))
+    def tiled(a):  # (one radius, mass or moment kept as one)
+        return a[:1] if a.ndim == 1 and _is_filled(a) else np.tile(a, (copies,) + (1,) * (a.ndim - 1))
 
     spins = state.angular_velocity
     return State(

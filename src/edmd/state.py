@@ -76,6 +76,26 @@ def _by_blocks(f, *arrays):
     return total
 
 
+def _one_or_each(name, value, n):
+    """A per-particle float field: given as one number (or a :func:`filled` constant), that number
+    everywhere in no memory (:func:`filled`, checked); else a checked copy of ``n`` numbers."""
+    arr = value if isinstance(value, np.ndarray) else np.asarray(value, float)
+    if (arr.size == 1 and arr.ndim <= 1) or (_is_filled(arr) and arr.shape == (n,)):
+        return filled(_as_float(name, arr.reshape(-1)[:1], (1,))[0], (n,))
+    return _as_float(name, _per_particle(name, value, n), (n,))
+
+
+def one_if_equal(values: np.ndarray) -> np.ndarray:
+    """``values``, or their one value (an array of one) when they are all equal: a :class:`State`
+    then keeps it in no memory (monodisperse radii or masses: 8 bytes per particle).
+
+    Example:
+        >>> one_if_equal(np.full(4, 0.5)).tolist(), one_if_equal(np.array([0.5, 0.7])).tolist()
+        ([0.5], [0.5, 0.7])
+    """
+    return values[:1] if values.size and values.min() == values.max() else values
+
+
 def _field(name, value, default, shape):
     """A float field: ``default`` everywhere (:func:`filled`) when ``value`` is ``None``, a
     :func:`filled` constant kept (its one value checked), anything else a checked copy."""
@@ -134,8 +154,9 @@ class State:
             run then captures the pairs closer than the well's edge).
 
     Fields left at their default (``angular_velocity``, ``image``, ``last_collision``, ``riding`` and
-    the pending contacts) are read-only constants that take no memory (:func:`filled`): give a new
-    array (``state.image = ...``) rather than writing into them.
+    the pending contacts), and ``radius``, ``mass`` and ``inertia`` given as one number, are
+    read-only constants that take no memory (:func:`filled`): give a new array
+    (``state.image = ...``) rather than writing into them.
 
     While eMD* contacts are pending, ``velocity`` is the actual flight velocity (the pair's
     centre-of-mass velocity) and observables (:meth:`kinetic_energy`, :meth:`temperature`,
@@ -177,16 +198,19 @@ class State:
             raise StateError("a state needs at least one particle")
         self.position = _as_float("position", pos, (n, d))
         self.velocity = _as_float("velocity", self.velocity, (n, d))
-        self.radius = _as_float("radius", _per_particle("radius", self.radius, n), (n,))
-        self.mass = _as_float("mass", _per_particle("mass", self.mass, n), (n,))
+        self.radius = _one_or_each("radius", self.radius, n)
+        self.mass = _one_or_each("mass", self.mass, n)
         self.box = _as_float("box", self.box, (d,))
         self.time = float(self.time)
         if not math.isfinite(self.time):
             raise StateError("time is not finite")
         spin_shape = (n, 3) if d == 3 else (n,)
         self.angular_velocity = _field("angular_velocity", self.angular_velocity, 0.0, spin_shape)
-        inertia = default_inertia(self.mass, self.radius, d) if self.inertia is None else self.inertia
-        self.inertia = _as_float("inertia", _per_particle("inertia", inertia, n), (n,))
+        inertia = self.inertia
+        if inertia is None:  # (one number for particles of one mass and radius: the array's arithmetic, bit for bit)
+            one = _is_filled(self.mass) and _is_filled(self.radius)
+            inertia = default_inertia(self.mass[:1], self.radius[:1], d) if one else default_inertia(self.mass, self.radius, d)
+        self.inertia = _one_or_each("inertia", inertia, n)
         image = filled(0, (n, d), np.int64) if self.image is None else np.asarray(self.image)
         if image.shape != (n, d) or not np.issubdtype(image.dtype, np.integer):
             raise StateError(f"image must be integers of shape {(n, d)}, got {image.dtype} {image.shape}")
@@ -364,7 +388,7 @@ class State:
         shear = None if self.shear_offset == 0.0 else (0.0, self.shear_offset)
         grid = overlap_grid(self.radius, box, np.r_[self.periodic, [False] * (3 - self.dim)], self.dim, shear=shear is not None)
         points = self.position if self.dim == 3 and self.position.flags.c_contiguous else self.points  # (no copy of 3D positions)
-        i, j, d = worst_overlap(points, self.radius, make_geo(box, half, shear=shear), grid, rel_tol)
+        i, j, d = worst_overlap(points, np.ascontiguousarray(self.radius), make_geo(box, half, shear=shear), grid, rel_tol)
         return None if i < 0 else (int(i), int(j), float(d))
 
     def check_no_overlap(self, rel_tol: float = OVERLAP_TOLERANCE):

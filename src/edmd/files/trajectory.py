@@ -27,7 +27,7 @@ from .atomic import atomic_path, fsync_existing
 from .frames import FrameReader, FrameWriter, copy_frames
 from ..run.observer import Observer, Totals
 from ..run.simulation import Simulation
-from ..state import State, StateError, _is_filled
+from ..state import State, StateError, _is_filled, one_if_equal
 
 
 def angmom(state: State) -> np.ndarray:
@@ -87,11 +87,12 @@ def state_chunks(state: State, totals: Totals | None = None, pending: bool | Non
         return out.astype(np.float64)
 
     def inertia():
+        moments = state.inertia  # (before the chunk: a view makes them of masses and radii it makes)
         out = np.zeros((n, 3))
         if d == 3:
-            out[:] = state.inertia[:, None]
+            out[:] = moments[:, None]
         else:
-            out[:, 2] = state.inertia
+            out[:, 2] = moments
         return out
 
     chunks = {
@@ -185,11 +186,12 @@ def _state_from(get, check_overlaps: bool) -> State:
     radius = get("log/particles/radius")
     if radius is None:
         diam = get("particles/diameter")
-        radius = 0.5 * (np.ones(n) if diam is None else np.asarray(diam, np.float64))
+        radius = 0.5 * (np.ones(1) if diam is None else np.asarray(diam, np.float64))
     mass = get("particles/mass")
-    mass = np.ones(n) if mass is None else np.asarray(mass, np.float64)
+    mass = np.ones(1) if mass is None else np.asarray(mass, np.float64)
     inertia = get("particles/moment_inertia")
     inertia = np.ascontiguousarray(np.asarray(inertia, np.float64)[:, 2 if d == 2 else 0]) if inertia is not None and np.any(np.asarray(inertia) > 0) else None
+    radius, mass, inertia = (a if a is None or a.size != n else one_if_equal(a) for a in (radius, mass, inertia))  # (one value: in no memory)
     image = _unless_all(get("particles/image"), 0)
     image = None if image is None else _columns(image, d, dtype=np.int64)
     spin = get("log/particles/angular_velocity")
