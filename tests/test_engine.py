@@ -441,3 +441,24 @@ def test_resyncs_after_every_event_or_two_are_spaced_out():
     sim = edmd.Simulation(edmd.maxwell_boltzmann(edmd.lattice(108, 0.2), 1.0, seed=1), engine={"resync_every": 0.008})
     sim.run(until_time=2.0)
     assert sim.time == 2.0 and sim.collisions > 300
+
+
+def test_snapshots_give_one_radius_and_mass_as_one(dim):
+    """A run of particles of one radius and mass gives them (and the default moments) back as
+    one number in its snapshots and views (no memory per particle; the values the arrays had),
+    growing radii too; polydisperse runs give arrays."""
+    mono = edmd.maxwell_boltzmann(edmd.lattice(200, 0.2, dim=dim), 1.0, seed=1)
+    sim = edmd.Simulation(mono)
+    sim.run(max_events=2000)
+    for state in (sim.state, sim.state_view()):
+        for name in ("radius", "mass", "inertia"):
+            a = getattr(state, name)
+            assert not any(a.strides) and a.tobytes() == getattr(mono, name).tobytes(), name
+    grown = edmd.Simulation(mono, growth=edmd.Growth(rate=0.05))
+    grown.run(max_events=2000)
+    r = grown.state.radius
+    assert not any(r.strides) and r[0] > mono.radius[0]
+    poly = _system(dim, 200, 0.2, seed=3)
+    sim = edmd.Simulation(poly)
+    sim.run(max_events=2000)
+    assert sim.state.radius.strides == (8,) and np.array_equal(sim.state.radius, poly.radius)

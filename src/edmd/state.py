@@ -115,7 +115,10 @@ def default_inertia(mass, radius, dim):
         0.1
     """
     q = 0.4 if dim == 3 else 0.5
-    return q * np.asarray(mass) * np.asarray(radius) ** 2
+    mass, radius = np.asarray(mass), np.asarray(radius)
+    if _is_filled(mass) and _is_filled(radius) and mass.shape == radius.shape:  # (one moment: the arrays' arithmetic on one element)
+        return filled((q * mass[:1] * radius[:1] ** 2)[0], mass.shape)
+    return q * mass * radius**2
 
 
 @dataclasses.dataclass(eq=False)
@@ -206,10 +209,7 @@ class State:
             raise StateError("time is not finite")
         spin_shape = (n, 3) if d == 3 else (n,)
         self.angular_velocity = _field("angular_velocity", self.angular_velocity, 0.0, spin_shape)
-        inertia = self.inertia
-        if inertia is None:  # (one number for particles of one mass and radius: the array's arithmetic, bit for bit)
-            one = _is_filled(self.mass) and _is_filled(self.radius)
-            inertia = default_inertia(self.mass[:1], self.radius[:1], d) if one else default_inertia(self.mass, self.radius, d)
+        inertia = default_inertia(self.mass, self.radius, d) if self.inertia is None else self.inertia
         self.inertia = _one_or_each("inertia", inertia, n)
         image = filled(0, (n, d), np.int64) if self.image is None else np.asarray(self.image)
         if image.shape != (n, d) or not np.issubdtype(image.dtype, np.integer):

@@ -164,6 +164,12 @@ class Saved:
     take_state: bool = False
 
 
+def _one_value(values: np.ndarray) -> float | None:
+    """The one value of ``values`` when they are all equal (snapshots then give it as a
+    :func:`~edmd.state.filled` constant, no memory per particle), else ``None``."""
+    return float(values[0]) if len(values) and values.min() == values.max() else None
+
+
 def _permuted(a: np.ndarray, perm: np.ndarray) -> np.ndarray:
     """``a`` with its rows in the order ``perm`` (row ``j`` was row ``perm[j]``), in place: a column
     at a time, so that the copy made is one column's."""
@@ -572,6 +578,7 @@ class Engine:
         if take:
             state.position = state.velocity = state.image = None
         self.part = Particles(P, state.mass[order], *self._spins(state, order), image, np.zeros(n, np.int32), self._tc_times(state, order))
+        self._one = tuple(_one_value(a) for a in (P[:, L.R], self.part.mass))  # (the same through resyncs)
         self._new_emd(pending, state.mass, state.radius)
         self.ev = new_events(n)
         self.pairs = new_pairs(n, captures)
@@ -1053,13 +1060,18 @@ class Engine:
         d, n = self.dim, self.n
         omega, inertia, tlast = self.part.omega, self.part.inertia, self.part.last_collision
 
+        one_radius, one_mass = self._one
+
         def radius():
+            grown = 1.0 + self.fp[L.FP_GROW_LOCAL] * (t - self.t_origin)
+            if one_radius is not None:  # (one radius: one number, the arrays' arithmetic)
+                return filled((np.array([one_radius]) * grown)[0], (n,))
             r = self._user_order(self.part.rows[:, L.R])
-            r *= 1.0 + self.fp[L.FP_GROW_LOCAL] * (t - self.t_origin)
+            r *= grown
             return r
 
         def mass():
-            return self._user_order(self.part.mass)
+            return self._user_order(self.part.mass) if one_mass is None else filled(one_mass, (n,))
 
         fixed = {"box": self.box_user.copy(), "time": float(t), "periodic": self.periodic.copy(), "shear_offset": self.shear_offset(t)}
         makers = {
