@@ -2,6 +2,7 @@
 
 import json
 import tomllib
+import warnings
 
 import numpy as np
 import pytest
@@ -299,3 +300,14 @@ def test_large_runs_are_subsampled_for_plots(tmp_path, monkeypatch):
     figures = run_figures(tmp_path)
     assert seen == [100] * 5  # the last 5 frames, 100 of 500 particles each
     assert len(_ellipses(figures["snapshot"]).get_offsets()) == 100 and "100 of 500 shown" in figures["snapshot"].axes[0].get_title()
+
+
+def test_pressure_of_a_gas_at_rest_has_no_compressibility_factor_and_no_warning():
+    """At T = 0 (a bed at rest, a start at kT = 0) Z = P/(nT) is undefined: no points, no
+    division warning (it used to print "invalid value encountered in divide")."""
+    table = {"time": np.arange(3.0), "temperature": np.array([0.0, 0.0, 1.0]), "pressure": np.array([0.0, 0.0, 2.0])}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        _, ax_z = plots.plot_pressure(table, edmd.lattice(64, 0.3))
+    z = ax_z.get_lines()[0].get_ydata()
+    assert np.isnan(z[:2]).all() and z[2] == pytest.approx(2.0 / (64 / edmd.lattice(64, 0.3).volume))

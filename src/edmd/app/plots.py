@@ -182,7 +182,9 @@ def plot_pressure(thermo, frames, axs=None):
     ax_p.plot(t, p, "o", ms=3, label=label)
     ax_p.plot(t, density * kT * z_eos, "-", label=f"{eos}: $nTZ$")
     ax_p.set_ylabel("pressure")
-    ax_z.plot(t, p / (density * kT), "o", ms=3, label=r"$Z = P/(nT)$")
+    nkT = density * np.asarray(kT, float)
+    z = np.divide(np.asarray(p, float), nkT, out=np.full(nkT.shape, np.nan), where=nkT > 0)  # (none at rest: T = 0)
+    ax_z.plot(t, z, "o", ms=3, label=r"$Z = P/(nT)$")
     ax_z.plot([t[0], t[-1]], [z_eos, z_eos], "-", label=rf"{eos}, $\eta$ = {eta:.4g}: Z = {z_eos:.4g}")
     ax_z.set_ylabel("Z")
     for ax in (ax_p, ax_z):
