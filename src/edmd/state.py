@@ -531,7 +531,8 @@ class StateView(State):
     fire (:attr:`edmd.run.observer.Observer.reads_once`; ``Simulation.state_view()``), instead of a
     copy of every particle. Everything a State computes works on it; :meth:`copy` (and
     ``dataclasses.replace``) make a plain State. It is readable only as long as its source is
-    unchanged (``RuntimeError`` afterwards: take ``Simulation.state`` to keep a state).
+    unchanged (``RuntimeError`` afterwards: take ``Simulation.state`` to keep a state). An engine's
+    view gives its images as the engine keeps them, int32 (a copy's are int64).
 
     Example:
         >>> import edmd

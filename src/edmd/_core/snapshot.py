@@ -42,7 +42,7 @@ def streamed(P, image, i, t, geo):
 
 @jit_alloc
 def stream_all(P, image, tag, t, d, geo, which):
-    """Positions (wrapped into the box), velocities and images of every particle at time ``t``,
+    """Positions (wrapped into the box), velocities and (int32) images of every particle at time ``t``,
     in the user's order (particle ``i`` of the engine is ``tag[i]``) and ``d`` dimensions;
     ``which`` (a mask of :data:`POSITIONS`, :data:`VELOCITIES`, :data:`IMAGES`) says which are
     made (the others come back with no rows).
@@ -53,7 +53,7 @@ def stream_all(P, image, tag, t, d, geo, which):
     n = P.shape[0]
     pos = np.empty((n if which & POSITIONS else 0, d))
     vel = np.empty((n if which & VELOCITIES else 0, d))
-    img = np.empty((n if which & IMAGES else 0, d), np.int64)
+    img = np.empty((n if which & IMAGES else 0, d), np.int32)  # (the engine's counters' type)
     for i in range(n):
         x, y, z, vx, vy, vz, mx, my, mz = streamed(P, image, i, t, geo)
         r = (x, y, z)

@@ -105,7 +105,7 @@ def state_chunks(state: State, totals: Totals | None = None, pending: bool | Non
         "particles/diameter": lambda: 2.0 * state.radius,
         "particles/mass": lambda: np.asarray(state.mass, np.float64),
         "particles/moment_inertia": inertia,
-        "particles/image": lambda: _three_columns(state.image.astype(np.int32), d),
+        "particles/image": lambda: _three_columns(state.image.astype(np.int32, copy=False), d),  # (a view's are int32 already)
         "log/time": np.array([state.time], np.float64),
         "log/configuration/box": np.asarray(state.box, np.float64),
         "log/configuration/periodic": state.periodic.astype(np.uint8),

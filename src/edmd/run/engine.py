@@ -1103,7 +1103,8 @@ class Engine:
         t = self.now if t is None else t
         fixed, makers = self._fields(t)
         pos, vel, image = self.stream(t)  # (one pass for the three)
-        fields = {"position": pos, "velocity": vel, "image": image, **fixed}
+        fields = {"position": pos, "velocity": vel, "image": image.astype(np.int64), **fixed}  # (a State's images are int64)
+        del image
         fields["radius"], fields["mass"] = makers.pop("radius")(), makers.pop("mass")()
         if not len(self.part.inertia):  # (the default, of the radii and masses just made)
             makers["inertia"] = lambda: default_inertia(fields["mass"], fields["radius"], self.dim)
