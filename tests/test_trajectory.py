@@ -165,8 +165,21 @@ def test_a_partial_frame_left_by_a_kill_is_cut_off(tmp_path):
     with open(tmp_path / "killed.gsd", "ab") as f:
         f.write(np.random.default_rng(0).bytes(3000))
     assert frame_count(tmp_path / "killed.gsd") == 4  # frames at 0.25, 0.5, 0.75, 1.0
-    truncate_frames(tmp_path / "killed.gsd", 4)
+    size = (tmp_path / "clean.gsd").stat().st_size
+    truncate_frames(tmp_path / "killed.gsd", 4, size)  # (the checkpoint's size: the partial frame is still cut off)
     assert (tmp_path / "killed.gsd").read_bytes() == (tmp_path / "clean.gsd").read_bytes()
+
+
+def test_a_trajectory_as_it_was_at_the_checkpoint_is_not_rewritten(tmp_path):
+    """A restart from the final checkpoint of a finished run (extending it) finds the file with the
+    frames and size it had at the checkpoint: kept as it is, not copied frame by frame."""
+    _trajectory(tmp_path / "t.gsd", 1.0, interval=0.25, n=27)
+    before = (tmp_path / "t.gsd").stat()
+    truncate_frames(tmp_path / "t.gsd", 4, before.st_size)
+    after = (tmp_path / "t.gsd").stat()
+    assert (after.st_ino, after.st_mtime_ns) == (before.st_ino, before.st_mtime_ns)
+    truncate_frames(tmp_path / "t.gsd", 4)  # (no size, an older checkpoint's: copied, the same bytes)
+    assert (tmp_path / "t.gsd").stat().st_ino != before.st_ino and (tmp_path / "t.gsd").stat().st_size == before.st_size
 
 
 def test_frames_selection_and_truncation(tmp_path):

@@ -296,17 +296,21 @@ def iter_states(path: str | os.PathLike, start: int = 0, stop: int | None = None
         raise _open_error(path, exc) from exc
 
 
-def truncate_frames(path: str | os.PathLike, frames: int):
+def truncate_frames(path: str | os.PathLike, frames: int, size: int | None = None):
     """Keep only the first ``frames`` frames of a GSD file (rewritten atomically).
 
     Used on restart: frames written after the checkpoint by the interrupted run are dropped. The
     frames are copied chunk for chunk (:func:`.frames.copy_frames`), so the file is byte for byte
-    the one a run that stopped after ``frames`` frames leaves.
+    the one a run that stopped after ``frames`` frames leaves. A file that still has the ``size``
+    in bytes it had at the checkpoint and ``frames`` frames is that file already (a writer only
+    appends): it is kept as it is (a run extended from its final checkpoint copies nothing).
     """
     have = frame_count(path)
     if have < frames:
         raise StateError(f"{path} has {have} frames, fewer than the {frames} the checkpoint expects")
     if not os.path.exists(path):  # (none expected: the first frame is after the checkpoint)
+        return
+    if have == frames and size is not None and os.path.getsize(path) == size:
         return
     # rewritten even when no frame is dropped: a run killed while writing a frame leaves its
     # partial data after the last complete frame, which appending would keep
@@ -440,12 +444,13 @@ class Trajectory(Observer):
         self._file.append(chunks)
 
     def checkpoint_data(self) -> dict:
-        return {**super().checkpoint_data(), "frames": self.frames}
+        size = os.path.getsize(self.path) if os.path.exists(self.path) else 0  # (synced before, Observer.sync)
+        return {**super().checkpoint_data(), "frames": self.frames, "bytes": size}
 
     def restore_data(self, data: dict):
         super().restore_data(data)
         self.close()
-        truncate_frames(self.path, int(data["frames"]))
+        truncate_frames(self.path, int(data["frames"]), None if "bytes" not in data else int(data["bytes"]))  # (older checkpoints: no size)
         self.mode = "a"
 
     def sync(self):
