@@ -1102,9 +1102,9 @@ class Engine:
         outside the box) stops the run there with a :class:`StateError` naming it."""
         t = self.now if t is None else t
         fixed, makers = self._fields(t)
-        pos, vel, image = self.stream(t)  # (one pass for the three)
-        fields = {"position": pos, "velocity": vel, "image": image.astype(np.int64), **fixed}  # (a State's images are int64)
-        del image
+        image = self.stream(t, IMAGES)[2].astype(np.int64)  # (a State's are int64: made first, the int32 stream gone before the rest exist)
+        pos, vel, _ = self.stream(t, POSITIONS | VELOCITIES)  # (one pass for the two)
+        fields = {"position": pos, "velocity": vel, "image": image, **fixed}
         fields["radius"], fields["mass"] = makers.pop("radius")(), makers.pop("mass")()
         if not len(self.part.inertia):  # (the default, of the radii and masses just made)
             makers["inertia"] = lambda: default_inertia(fields["mass"], fields["radius"], self.dim)
