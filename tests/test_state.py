@@ -236,6 +236,7 @@ def test_a_view_reads_what_a_copy_holds_each_field_made_when_read(dim, rule):
         assert np.array_equal(getattr(view, method)(), getattr(copy, method)()), method
     again = view.copy()
     assert type(again) is State and np.array_equal(again.velocity, copy.velocity)
+    assert again.image.dtype == copy.image.dtype == np.int64  # (a view's own are the engine's int32)
     replaced = dataclasses.replace(view, velocity=np.zeros((200, dim)), check_overlaps=False)
     assert type(replaced) is State and not replaced.velocity.any() and np.array_equal(replaced.position, copy.position)
     sim.run(max_events=10)

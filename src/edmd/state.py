@@ -573,8 +573,10 @@ class StateView(State):
         return self._dim
 
     def copy(self) -> State:
-        """A plain :class:`State` of the same fields (every one made)."""
-        return State.trusted(**{name: self._make(name) for name in PARTICLE_FIELDS}, **{k: v for k, v in self.__dict__.items() if not k.startswith("_")})
+        """A plain :class:`State` of the same fields (every one made; images as a State's, int64)."""
+        fields = {name: self._make(name) for name in PARTICLE_FIELDS}
+        fields["image"] = fields["image"].astype(np.int64, copy=False)
+        return State.trusted(**fields, **{k: v for k, v in self.__dict__.items() if not k.startswith("_")})
 
 
 def _made(name: str) -> property:
