@@ -36,7 +36,7 @@ from ..physics.emdstar import EMDStar, FrictionTableWarning, emd_bundle, frictio
 from ..physics.tables import PAIR_SPECIES
 from .memory import grid_shape
 from .neighbours import big_count, block_reach, cell_edge, local_densities
-from ..state import State, StateError, StateView, default_inertia, filled, rescale_temperature
+from ..state import State, StateError, StateView, default_inertia, filled, one_if_equal, rescale_temperature
 
 #: ``INFO`` when a run must compile its loop variant first (the CLI shows it)
 log = logging.getLogger("edmd.compile")
@@ -167,7 +167,20 @@ class Saved:
 def _one_value(values: np.ndarray) -> float | None:
     """The one value of ``values`` when they are all equal (snapshots then give it as a
     :func:`~edmd.state.filled` constant, no memory per particle), else ``None``."""
-    return float(values[0]) if len(values) and values.min() == values.max() else None
+    one = one_if_equal(values)
+    return float(one[0]) if one.size == 1 else None
+
+
+def _inverse(order: np.ndarray, dtype=np.int32) -> np.ndarray:
+    """The inverse of the permutation ``order``: ``inverse[order[j]] = j``."""
+    inverse = np.empty(len(order), dtype)
+    inverse[order] = np.arange(len(order), dtype=dtype)
+    return inverse
+
+
+def _partners(partner: np.ndarray, inverse: np.ndarray) -> np.ndarray:
+    """Partner indices ``partner`` (-1: none) renumbered by ``inverse`` (:func:`_inverse`), int32."""
+    return np.where(partner >= 0, inverse[np.maximum(partner, 0)], -1).astype(np.int32)
 
 
 def _permuted(a: np.ndarray, perm: np.ndarray) -> np.ndarray:
@@ -679,13 +692,9 @@ class Engine:
             return None
         if self.emd_rule is None:
             raise StateError("the state has pending eMD* contacts: simulate it with the EMDStar rule it came from")
-        inv = np.empty(self.n, np.int64)
-        inv[order] = np.arange(self.n)
         dv = np.zeros((self.n, 3))
         dv[:, : self.dim] = state.pending_velocity[order]
-        partner = state.pending_partner[order]
-        pj = np.where(partner >= 0, inv[np.maximum(partner, 0)], -1).astype(np.int32)
-        return dv, state.pending_until[order] - self.t_origin, pj
+        return dv, state.pending_until[order] - self.t_origin, _partners(state.pending_partner[order], _inverse(order))
 
     def _check_capture_counts(self, state: State, capacity: int):
         """Refuse a capture map with more partners per particle than hard cores fit in a well."""
@@ -699,9 +708,7 @@ class Engine:
 
     def _load_captured(self, state: State, order: np.ndarray):
         """The capture map of ``state`` (user order, checked by :meth:`_check_capture_counts`) in internal order."""
-        inv = np.empty(self.n, np.int64)
-        inv[order] = np.arange(self.n)
-        load_captured(self.pairs, inv[state.captured_pairs])
+        load_captured(self.pairs, _inverse(order, np.int64)[state.captured_pairs])
 
     def _check_captured(self, state: State):
         """A capture map from outside must be the state's geometry: the pairs inside the edge, up to
@@ -989,8 +996,7 @@ class Engine:
         keys[self.tag] = self._cell_keys(lambda k: rows[:, k])  # (in the user's order)
         order = np.argsort(keys, kind="stable")
         del keys
-        index = np.empty(n, np.int32)
-        index[self.tag] = np.arange(n, dtype=np.int32)
+        index = _inverse(self.tag)
         self.tag = order.astype(np.int32)
         return index[order]
 
@@ -1024,10 +1030,7 @@ class Engine:
         dv[:, self.dim :] = 0.0
         until = e.pending_until + t_old
         until -= self.t_origin
-        moved = np.empty(self.n, np.int32)
-        moved[perm] = np.arange(self.n, dtype=np.int32)
-        partner = e.partner[perm]
-        return dv, until[perm], np.where(partner >= 0, moved[np.maximum(partner, 0)], -1).astype(np.int32)
+        return dv, until[perm], _partners(e.partner[perm], _inverse(perm))
 
     def _restore(self, state: State, saved: Saved):
         """Load ``state`` with the counters, accumulators and list capacity saved right after a
