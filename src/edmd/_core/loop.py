@@ -27,9 +27,8 @@ from .nblist import build_lists, list_reach, rebuild_list
 from .predict import advance, separation
 from .stress import integrate_sheared
 from .wallmotion import free_fall, has_wall, integrate_riding, release, take_off
-from .prefetch import prefetch
 from .queue import queue_top, queue_update
-from .schedule import cross_cell, pending_arrays, predict_added, predict_aux, predict_pair, prefetch_neighbours, repredict, requeue, warm_next, wrap_into_box
+from .schedule import cross_cell, pending_arrays, predict_aux, predict_pair, prefetch_neighbours, repredict, requeue, warm_next, wrap_into_box
 from .growth import collide_growing
 from .wells import capture_by_distance, well_event, well_reach
 
@@ -200,7 +199,7 @@ def _make_loop(walls, emd_on, rough, normal, bath_on, kick_on, well, grow):
 
         Returns a status code of :mod:`.layout` (``ST_*``); ``acc[A_NOW]`` holds the time of the
         last processed event. The state is consistent at every return. ``cbuf`` is an int32 scratch
-        array: the cells of a walk, then a list build's staged candidates (the loop allocates nothing); ``emd`` holds the pending eMD* contacts
+        array: a walk's cells, then a list build's stage (the loop allocates nothing); ``emd`` holds the pending eMD* contacts
         and the matrix-of-restitution table (:mod:`.emdstar`), ``pairs`` the square wells' event
         kinds and capture map (:mod:`.wells`).
         """
@@ -293,12 +292,8 @@ def _make_loop(walls, emd_on, rough, normal, bath_on, kick_on, well, grow):
                     advance(P, i, t, geo)
                     wrap_into_box(P, image, i, t, geo)
                     cnt[L.C_REBUILD] += 1
-                    added = rebuild_list(i, P, grid, lists, geo, skin, lists_reach, cbuf)
-                    if added < 0:
+                    if not rebuild_list(i, P, grid, lists, geo, skin, lists_reach, cbuf):
                         return L.ST_LIST_FULL
-                    if not (well or grow):  # (the new neighbours only)
-                        predict_added(i, t, P, count, ev, grid, lists, geo, cbuf, skin, added, pending)
-                        pair = False
                 elif kind >= L.AUX_CELL and kind < L.AUX_WALL:  # a cell crossing (the most frequent
                     # event of dilute gases): a path of its own
                     cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf, pending)
@@ -321,8 +316,6 @@ def _make_loop(walls, emd_on, rough, normal, bath_on, kick_on, well, grow):
                     j = i
                     aux = False
                 else:
-                    if mode == NB_LIST:  # (j's list, far in memory, loads during the collision)
-                        prefetch(lists.members, j)
                     if log_cap > 0 and cnt[L.C_LOG] >= log_cap:
                         cnt[L.C_EVENTS] -= 1
                         return L.ST_LOG_FULL
