@@ -96,9 +96,9 @@ def test_big_particles_match_brute_force(dim, slow_case):
 
 
 def test_lists_with_big_particles_match_brute_force(dim):
-    # the intruders of the fast case in list mode: list builds stage the candidates within the
-    # largest reach and read a candidate's radius only between the bounds of the radii
-    # (nblist._within_sum); the reference's collisions, then on with the debug checks
+    # the intruders of the fast case in list mode: list builds read a candidate's radius only
+    # between the bounds of the radii (a size ratio of 5-10 puts many candidates there); the
+    # reference's collisions, then on with the debug checks
     n, bigs, ratio, eta, t_end = {2: (150, 2, 10, 0.1, 2.0), 3: (200, 3, 5, 0.05, 2.4)}[dim]
     s = _intruders(dim, n, bigs, ratio, eta)
     sim = edmd.Simulation(s, engine=EngineOptions(neighbours="list", debug=True))

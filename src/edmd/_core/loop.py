@@ -199,7 +199,7 @@ def _make_loop(walls, emd_on, rough, normal, bath_on, kick_on, well, grow):
 
         Returns a status code of :mod:`.layout` (``ST_*``); ``acc[A_NOW]`` holds the time of the
         last processed event. The state is consistent at every return. ``cbuf`` is an int32 scratch
-        array: a walk's cells, then a list build's stage (the loop allocates nothing); ``emd`` holds the pending eMD* contacts
+        array of 27 cells (the loop allocates nothing); ``emd`` holds the pending eMD* contacts
         and the matrix-of-restitution table (:mod:`.emdstar`), ``pairs`` the square wells' event
         kinds and capture map (:mod:`.wells`).
         """

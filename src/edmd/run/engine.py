@@ -29,7 +29,7 @@ from .._core.loop import GEO_ARG, integrate_kinetic, loop_variant
 from .._core.wallmotion import rider_axis
 from .._core.queue import QI_MOVED, calendar_shape, new_queue, queue_build
 from .._core.snapshot import IMAGES, POSITIONS, VELOCITIES, stream_all, stream_rows
-from .._core.nblist import STAGE, list_reach
+from .._core.nblist import list_reach
 from .._core.wells import capture_by_distance, captured_pairs, load_captured, well_reach
 from ..physics import collide
 from ..physics.emdstar import EMDStar, FrictionTableWarning, emd_bundle, friction_table_misses
@@ -306,12 +306,7 @@ class Engine:
     def _neighbours_for(self, state: State):
         """Choose the neighbour structure for ``state``'s radii and density, and size the cell walks' buffer."""
         self._choose_neighbours(state)
-        self.cbuf = self._walk_buffer(self.shear is not None)
-
-    def _walk_buffer(self, shear: bool) -> np.ndarray:
-        """The core's int32 scratch: the cells of any walk of the grid, then the candidates a list
-        build stages (:data:`edmd._core.nblist.STAGE`)."""
-        return np.zeros(cells_buffer_size(self.grid_cells, shear, self.big_reach) + STAGE, np.int32)
+        self.cbuf = np.zeros(cells_buffer_size(self.grid_cells, self.shear is not None, self.big_reach), np.int32)
 
     def _choose_neighbours(self, state: State):
         opt = self.options
@@ -574,7 +569,7 @@ class Engine:
             cells = self._cells(state, sigma_max, periodic_len, periodic3, self._big_split(state, periodic_len, periodic3))
             if cells is not None:
                 self.grid_cells, self.r_small, self.big_reach = cells
-                self.cbuf = self._walk_buffer(False)
+                self.cbuf = np.zeros(cells_buffer_size(self.grid_cells, False, self.big_reach), np.int32)
         n = self.n
         order = self._spatial_order(state)
         pending = self._pending_arrays(state, order)
