@@ -23,15 +23,19 @@ def _listed_pairs(engine) -> set[tuple[int, int]]:
     return {(i, j) for i, j in pairs if i < j}
 
 
+def _distance2(d, box) -> np.ndarray:
+    """Squared minimum-image lengths of the separations ``d`` (last axis: the components)."""
+    d = d - box * np.round(d / box)
+    return (d**2).sum(axis=-1)
+
+
 def _pairs_by_distance(engine, dim) -> set[tuple[int, int]]:
     """All pairs whose list centres are closer than ``sigma_ij + skin`` (minimum image, numpy)."""
     centre = engine.lists.centre[:, :dim]
     radius = engine.part.rows[:, L.R]
     box = engine.box[:dim]
-    d = centre[:, None, :] - centre[None, :, :]
-    d -= box * np.round(d / box)
     reach = radius[:, None] + radius[None, :] + engine.fp[L.FP_SKIN]
-    i, j = np.nonzero(np.triu((d**2).sum(axis=2) < reach**2, k=1))
+    i, j = np.nonzero(np.triu(_distance2(centre[:, None, :] - centre[None, :, :], box) < reach**2, k=1))
     return set(zip(i.tolist(), j.tolist()))
 
 
@@ -76,9 +80,7 @@ def test_a_rebuild_of_a_full_list_frees_the_departed_first(dim):
     rng = np.random.default_rng(1)
 
     def within_reach(i, x):
-        d = centre[:, :dim] - x
-        d -= box * np.round(d / box)
-        near = set(np.nonzero((d**2).sum(axis=1) < (P[i, L.R] + P[:, L.R] + skin) ** 2)[0].tolist())
+        near = set(np.nonzero(_distance2(centre[:, :dim] - x, box) < (P[i, L.R] + P[:, L.R] + skin) ** 2)[0].tolist())
         return near - {i}
 
     for i in np.nonzero(size == cap)[0]:
@@ -108,10 +110,8 @@ def test_lists_of_intruders_with_hundreds_of_candidates_stay_exact(dim):
     engine = sim.engine
     centre, box = engine.lists.centre[:, :dim], engine.box[:dim]
     big = int(np.argmax(engine.part.rows[:, L.R]))
-    d = centre - centre[big]
-    d -= box * np.round(d / box)
     far = 6.0 + engine.fp[L.FP_SKIN] + 6.0
-    assert np.count_nonzero((d**2).sum(axis=1) < far**2) > 100
+    assert np.count_nonzero(_distance2(centre - centre[big], box) < far**2) > 100
     assert _listed_pairs(engine) == _pairs_by_distance(engine, dim)
     sim.run(max_events=20 * s.n)
     assert engine.cnt[L.C_REBUILD] > 2 * s.n
