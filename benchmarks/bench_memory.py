@@ -6,9 +6,10 @@ core) set the baseline resident memory; then the state is built (``lattice``, ``
 alive, as in a script), ``--events`` events per particle run, and the engine resynced (as
 maintenance does every 200 events per particle). The peak resident set of each
 stage comes from the kernel's high-water mark (reset between stages through
-``/proc/self/clear_refs``, Linux), so transient copies count; the last stage takes a snapshot
-(``Simulation.state``), as every observer output does, and the outputs of ``edmd run`` fire
-twice (a thermo row, a trajectory frame, a checkpoint). A restart from that checkpoint is
+``/proc/self/clear_refs``, Linux), so transient copies count; then the outputs of ``edmd run``
+fire twice (a thermo row, a trajectory frame, a checkpoint), and last a user takes a copy of the
+state (``Simulation.state``; its freed arrays stay in glibc's heap below its ``mmap`` threshold,
+which rises to 32 MB: a stage after it would start from that level). A restart from that checkpoint is
 measured in a fresh process of its own (``restart``). Also reported: the engine's own arrays per
 particle and the wall-clock time of the set-up and of the restart.
 
@@ -82,14 +83,16 @@ def measure(n: int, eta: float, mode: str, start: str, events: float, folder: st
     stage("run")
     sim.engine.resync()  # (a maintenance resync, every 200 events per particle; each checkpoint makes one)
     stage("resync")
-    snap = sim.state  # what observers that read the state take
-    del snap
-    stage("snapshot")
     for obs in _outputs(folder):
         sim.add(obs)  # the outputs of edmd run, due at once
     sim.run(until_time=sim.time + 1.5e-3)  # (two outputs: a trajectory's later frames differ from its first)
     sim.close()
     stage("outputs")
+    # a user's copy of the state, last: below glibc's mmap threshold (which rises to 32 MB) its
+    # freed arrays stay resident in the C heap, and a stage after it would start from that level
+    snap = sim.state
+    del snap
+    stage("snapshot")
     return {
         "n": n,
         "eta": eta,
