@@ -75,7 +75,7 @@ def bench(n: int, eta: float, mode: str, equilibrate: float, measure: float, rep
     u0 = sim.state.unwrapped_position
     rates, event_rates, ratios = [], [], []
     for _ in range(repeats):
-        c0, e0, s0 = sim.collisions, sim.events, int(sim.engine.cnt[L.C_STALE])
+        c0, e0 = sim.collisions, sim.events
         t0 = time.perf_counter()
         sim.run(max_events=int(measure * n * 1.6))
         dt = time.perf_counter() - t0

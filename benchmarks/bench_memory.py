@@ -29,7 +29,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from bench_hard_spheres import engine_bytes, machine_info, write_results
+from bench_hard_spheres import engine_bytes, write_results
 
 
 def _status(field: str) -> float:

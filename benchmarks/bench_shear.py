@@ -41,9 +41,9 @@ def main():
     args = ap.parse_args()
     state = edmd.maxwell_boltzmann(edmd.random_packing(args.n, args.eta, seed=1), 1.0, seed=2)
     cases = {"unsheared, lists": {"engine": {"neighbours": "list"}}, "unsheared, cells": {"engine": {"neighbours": "cells"}}}
-    for rate in args.rates:
+    for gamma in args.rates:
         for mode, neighbours in (("lists", "list"), ("cells", "cells")):
-            cases[f"sheared, rate {rate:g}, {mode}"] = {"shear": edmd.Shear(rate), "engine": {"neighbours": neighbours}}
+            cases[f"sheared, rate {gamma:g}, {mode}"] = {"shear": edmd.Shear(gamma), "engine": {"neighbours": neighbours}}
     runs = {name: [] for name in cases}
     for k in range(args.rounds):
         for name, physics in cases.items():
