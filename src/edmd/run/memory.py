@@ -2,10 +2,11 @@
 
 A run's peak memory is dominated by per-particle arrays (the State, the engine's rows,
 neighbour lists, the calendar, a snapshot for an observer): about :data:`BYTES_PER_PARTICLE`
-(measured peak resident memory of hard-sphere runs, N = 1e6 and 1e7: 230-250 bytes per particle
-in cells mode, 330-350 with lists; 370-410 and 480-500 while the outputs of ``edmd run`` are
-written, a thermo row, a trajectory frame and a checkpoint; rough, TC or eMD* runs carry their
-own arrays; ``benchmarks/bench_memory.py``). The cell
+(measured peak resident memory of hard-sphere runs, N = 1e6 and 1e7, the user's state alive:
+215-221 bytes per particle in cells mode, 305-325 with lists; 234-245 and 335-350 while the
+outputs of ``edmd run`` are written, a thermo row, a trajectory frame and a checkpoint; a user's
+copy of the state adds 72; rough, TC or eMD* runs carry their own arrays;
+``benchmarks/bench_memory.py``). The cell
 grid would add 4 bytes per cell and grows with the box *volume*: at packing fraction 1e-6 a grid
 of one-diameter cells for 1e4 spheres has 5e9 cells. :func:`grid_shape` therefore coarsens the
 cells of dilute systems so that there are at most :data:`MAX_CELLS_PER_PARTICLE` cells per
