@@ -36,7 +36,7 @@ def make_driver(rebuild_list):
             i = seq[m]
             for k in range(3):
                 P[i, k] += kick[m, k]
-            rebuilt += rebuild_list(i, P, grid, lists, geo, skin, 1.0, cbuf)
+            rebuilt += rebuild_list(i, P, grid, lists, geo, skin, 1.0, cbuf) >= 0  # (a bool in older trees)
         return rebuilt
 
     return replay

@@ -20,16 +20,23 @@ from edmd.files.trajectory import read_state
 DATA = Path(__file__).parent / "data"
 
 
-def test_a_format_1_checkpoint_continues_bit_for_bit(tmp_path):
+def test_a_format_1_checkpoint_continues_as_the_code_that_wrote_it(tmp_path):
+    """The same collisions and the same state to round-off (1e-12; the issue-11 standard for a
+    faster loop is 1e-9; measured 8e-14): a list rebuild now predicts only its new neighbours
+    (not every listed pair again), so contact times are computed at other instants (last bits)
+    and the events (stale re-predictions included) are counted differently. The code of the
+    fixture (f94ef9b) reached this state bit for bit; a migration slip (a parameter or law loaded
+    wrong) is far above the tolerance."""
     assert read_checkpoint(DATA / "checkpoint_v1.gsd").time == 1.0
     sim = load_checkpoint(DATA / "checkpoint_v1.gsd", [Checkpoint(tmp_path / "ck.gsd", interval=1.0)])
     sim.run(until_time=2.0)
     then, now = read_state(DATA / "checkpoint_v1_continued.gsd"), sim.state
-    for field in ("position", "velocity", "angular_velocity", "image", "last_collision"):
-        assert np.array_equal(getattr(now, field), getattr(then, field)), field
+    assert np.array_equal(now.image, then.image)
+    for field in ("position", "velocity", "angular_velocity", "last_collision"):
+        assert np.allclose(getattr(now, field), getattr(then, field), rtol=0, atol=1e-12), field
     with gsd.hoomd.open(DATA / "checkpoint_v1_continued.gsd") as f:
         log = f[0].log
-    assert sim.collisions == int(log["collisions"][0]) > 100 and sim.events == int(log["events"][0])
+    assert sim.collisions == int(log["collisions"][0]) > 100
 
 
 def _edit_checkpoint(src, dst, edit):

@@ -194,14 +194,25 @@ def test_cli_names_keys_without_effect(tmp_path):
 
 
 def test_compile_warms_the_loop_of_a_feature_set():
-    r = runner.invoke(app, ["compile", "plain", "walls", "bath"])
+    r = runner.invoke(app, ["compile", "plain", "walls", "bath", "--neighbours", "cells"])
     assert r.exit_code == 0, r.output
-    assert "plain:" in r.output and "walls:" in r.output and "bath:" in r.output
-    r = runner.invoke(app, ["compile", "walls"])  # now cached
-    assert "walls: already cached" in r.output
-    runner.invoke(app, ["compile", "walls+vibration"])
-    r = runner.invoke(app, ["compile", "walls+vibration"])  # (the cache check once used a geometry one entry short)
-    assert "walls+vibration: already cached" in r.output
+    assert "plain (cells):" in r.output and "walls (cells):" in r.output and "bath (cells):" in r.output
+    r = runner.invoke(app, ["compile", "walls", "--neighbours", "cells"])  # now cached
+    assert "walls (cells): already cached" in r.output
+    runner.invoke(app, ["compile", "walls+vibration", "--neighbours", "cells"])
+    r = runner.invoke(app, ["compile", "walls+vibration", "--neighbours", "cells"])  # (the cache check once used a geometry one entry short)
+    assert "walls+vibration (cells): already cached" in r.output
+
+
+def test_compile_takes_both_neighbour_structures_unless_told():
+    # neighbours = "auto" may pick either; square wells and growth run with lists only
+    r = runner.invoke(app, ["compile", "plain", "well"])
+    assert r.exit_code == 0, r.output
+    assert "plain (cells):" in r.output and "plain (lists):" in r.output and "well (lists):" in r.output and "well (cells)" not in r.output
+    r = runner.invoke(app, ["compile", "grow", "--neighbours", "cells"])
+    assert r.exit_code == 2 and "no variant to compile: grow, well run with lists only" in r.output
+    r = runner.invoke(app, ["compile", "plain", "--neighbours", "lists"])
+    assert r.exit_code == 2 and "neighbours must be cells, list or both, got 'lists'" in r.output
 
 
 def test_compile_names_a_bad_feature():
@@ -220,13 +231,13 @@ def test_compile_names_a_bad_feature():
 
 
 def test_compile_warms_the_vibrating_wall():
-    r = runner.invoke(app, ["compile", "walls+vibration"])
-    assert r.exit_code == 0 and "walls+vibration:" in r.output, r.output
+    r = runner.invoke(app, ["compile", "walls+vibration", "--neighbours", "cells"])
+    assert r.exit_code == 0 and "walls+vibration (cells):" in r.output, r.output
 
 
 def test_compile_warms_the_sheared_loop():
-    r = runner.invoke(app, ["compile", "shear"])
-    assert r.exit_code == 0 and "plain+shear:" in r.output, r.output
+    r = runner.invoke(app, ["compile", "shear", "--neighbours", "cells"])
+    assert r.exit_code == 0 and "plain+shear (cells):" in r.output, r.output
 
 
 def test_run_says_when_it_compiles_its_loop(tmp_path, monkeypatch):

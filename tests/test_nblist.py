@@ -39,6 +39,27 @@ def _pairs_by_distance(engine, dim) -> set[tuple[int, int]]:
     return set(zip(i.tolist(), j.tolist()))
 
 
+def test_a_rebuild_returns_the_neighbours_it_added_as_the_last_entries(dim):
+    # each rebuild moves a centre by up to the shell: the neighbours kept keep their order, the
+    # new ones follow them (what schedule.predict_added tests), the departed are gone from both lists
+    s = edmd.maxwell_boltzmann(edmd.random_packing(300, 0.4, dim=dim, seed=11), 1.0, seed=12)
+    engine = edmd.Simulation(s, engine=EngineOptions(neighbours="list")).engine
+    P, skin, lists = engine.part.rows, engine.fp[L.FP_SKIN], engine.lists
+    rng = np.random.default_rng(2)
+    gained = 0
+    for i in rng.choice(engine.n, 150, replace=False):
+        old = lists.members[i, : lists.size[i]].tolist()
+        P[i, :dim] = lists.centre[i, :dim] + rng.uniform(-0.5, 0.5, dim) * skin
+        P[i, :dim] -= engine.box[:dim] * np.floor(P[i, :dim] / engine.box[:dim] + 0.5)  # (back into the box)
+        added = nblist.rebuild_list(i, P, engine.grid, lists, engine.geo, skin, 1.0, engine.cbuf)
+        row = lists.members[i, : lists.size[i]].tolist()
+        kept = [j for j in old if j in row]
+        assert row == kept + [j for j in row if j not in old] and added == len(row) - len(kept)
+        gained += added
+    assert gained > 20
+    assert _listed_pairs(engine) == _pairs_by_distance(engine, dim)
+
+
 @pytest.mark.parametrize("radius", [0.5, {"kind": "uniform", "min": 0.1, "max": 1.0}], ids=["equal", "ratio-10"])
 def test_lists_after_many_rebuilds_are_the_pairs_within_reach(dim, radius):
     # a dense fluid rebuilds each list many times; with radii 0.1-1.0 the bounds of the radii that
@@ -93,8 +114,9 @@ def test_a_rebuild_of_a_full_list_frees_the_departed_first(dim):
         else:
             continue
         P[i, :dim] = x
-        assert nblist.rebuild_list(i, P, engine.grid, engine.lists, engine.geo, skin, 1.0, engine.cbuf)
-        assert set(engine.lists.members[i, : engine.lists.size[i]].tolist()) == new
+        added = nblist.rebuild_list(i, P, engine.grid, engine.lists, engine.geo, skin, 1.0, engine.cbuf)
+        row = engine.lists.members[i, : engine.lists.size[i]].tolist()
+        assert set(row) == new and set(row[len(row) - added :]) >= new - old  # (old ones found after the free count too)
         assert _listed_pairs(engine) == _pairs_by_distance(engine, dim)
         return
     pytest.fail("no full list found whose rebuild swaps neighbours")

@@ -275,7 +275,7 @@ def rebin(p, t, P, image, grid, lists, geo, mode, fp, cbuf):
     dx, dy, dz = wrap3(P[p, L.X] - centre[p, 0], P[p, L.Y] - centre[p, 1], P[p, L.Z] - centre[p, 2], geo)
     if max(abs(dx), abs(dy), abs(dz)) <= h:
         return True
-    return rebuild_list(p, P, grid, lists, geo, fp[L.FP_SKIN], 1.0, cbuf)  # (no square wells with eMD*)
+    return rebuild_list(p, P, grid, lists, geo, fp[L.FP_SKIN], 1.0, cbuf) >= 0  # (no square wells with eMD*)
 
 
 @jit

@@ -22,13 +22,13 @@ from .collide import collide_pair, collide_wall
 from .emdstar import emd_contact, emd_contact_frictional, execute_b, finish_contact, is_pending
 from .forcing import white_noise_kick
 from .jit import hot, jit, leaf
-from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTACT_GROWN, CONTACT_SOFT, CONTACT_WELL, NB_LIST, NORMAL_SOFT, TANGENT_SMOOTH
+from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTACT_GROWN, CONTACT_SOFT, CONTACT_WELL, NB_CELLS, NB_LIST, NORMAL_SOFT, TANGENT_SMOOTH
 from .nblist import build_lists, list_reach, rebuild_list
 from .predict import advance, separation
 from .stress import integrate_sheared
 from .wallmotion import free_fall, has_wall, integrate_riding, release, take_off
 from .queue import queue_top, queue_update
-from .schedule import cross_cell, pending_arrays, predict_aux, predict_pair, prefetch_neighbours, repredict, requeue, warm_next, wrap_into_box
+from .schedule import cross_cell, pending_arrays, predict_added, predict_aux, predict_pair, prefetch_neighbours, repredict, requeue, warm_next, wrap_into_box
 from .growth import collide_growing
 from .wells import capture_by_distance, well_event, well_reach
 
@@ -109,13 +109,14 @@ class Loop(NamedTuple):
 
     run_events: Callable
     setup_events: Callable
-    name: str
+    name: str  #: its feature set (:func:`variant_name`)
+    neighbours: str  #: ``"lists"`` or ``"cells"``
 
 
 def variant_name(key: tuple) -> str:
-    """Readable name of a feature set (the key of :func:`loop_variant`: walls, emd_on, rough,
-    normal, bath, noise, well, grow), e.g. ``"walls+rough+soft"`` (``"plain"``: none;
-    ``soft``: the central restitution of a contact law, e.g. viscoelastic spheres).
+    """Readable name of a feature set (the key of :func:`loop_variant` but the neighbour
+    structure: walls, emd_on, rough, normal, bath, noise, well, grow), e.g. ``"walls+rough+soft"``
+    (``"plain"``: none; ``soft``: the central restitution of a contact law, e.g. viscoelastic spheres).
 
     Example:
         >>> from edmd._core import layout as L
@@ -142,16 +143,21 @@ def loop_variant(
     noise: bool = False,
     well: bool = False,
     grow: bool = False,
+    lists: bool = False,
 ) -> Loop:
     """The event loop specialised to the physics of a run, compiled (and cached on disk) on first use.
 
     The features are compile-time constants of the loop (closure variables): Numba prunes the
     branches they decide before type inference, through the inlined helpers too, so a run
     compiles only the collision code of its own rules, and each feature set is a separate entry
-    of the on-disk cache (closure values are part of the cache key). The neighbour structure stays
-    a run-time choice: its code is in functions compiled once and called. So is debug mode
-    (``ip[IP_DEBUG]``, one test per collision): its check is a called function, compiled once,
-    and as a closure flag it gave every variant that a debug run used a twin to compile.
+    of the on-disk cache (closure values are part of the cache key). The neighbour structure is
+    one of them too: a cells run never compiles shell exits, a lists run neither cell crossings
+    nor their inlined scans (and a list rebuild tests only the neighbours it added,
+    :func:`.schedule.predict_added`, where a shared loop body ran cells mode 2-5 % slower).
+    Debug mode (``ip[IP_DEBUG]``, one test per collision) is a run-time choice: its check is a
+    called function, compiled once, and as a closure flag it gave every variant that a debug run
+    used a twin to compile. So is the set-up (:class:`Loop`'s ``setup_events``), shared by both
+    neighbour structures.
 
     Args:
         walls: some axis is closed by walls (which ones: ``ip[IP_WALLS]``); without, no wall code.
@@ -165,6 +171,7 @@ def loop_variant(
             neighbour lists only).
         grow: growing radii, Lubachevsky–Stillinger compression (:mod:`.growth`; neighbour lists,
             periodic boxes and smooth constant-restitution rules only).
+        lists: neighbour lists (``ip[IP_MODE] == NB_LIST``); else cells.
 
     Example:
         >>> from edmd._core import layout as L
@@ -172,12 +179,12 @@ def loop_variant(
         >>> loop is loop_variant(False, False, False, L.NORMAL_CONST)
         True
     """
-    key = (bool(walls), bool(emd_on), bool(rough), int(normal), bool(bath), bool(noise), bool(well), bool(grow))
+    key = (bool(walls), bool(emd_on), bool(rough), int(normal), bool(bath), bool(noise), bool(well), bool(grow), bool(lists))
     if key not in _VARIANTS:
         aux = (key[0], key[1], key[4], key[6], key[7])  # the set-up depends on the single-particle events, wells and growth only
         if aux not in _SETUPS:
             _SETUPS[aux] = _make_setup(*aux)
-        _VARIANTS[key] = Loop(_make_loop(*key), _SETUPS[aux], variant_name(key))
+        _VARIANTS[key] = Loop(_make_loop(*key), _SETUPS[aux], variant_name(key[:-1]), "lists" if lists else "cells")
     return _VARIANTS[key]
 
 
@@ -192,7 +199,9 @@ def _resting_on_wall(i, t_abs, now_abs, ev):
     return wall and t_abs - now_abs <= L.STALL_RESOLUTION * t_abs
 
 
-def _make_loop(walls, emd_on, rough, normal, bath_on, kick_on, well, grow):
+def _make_loop(walls, emd_on, rough, normal, bath_on, kick_on, well, grow, use_lists):
+    mode = NB_LIST if use_lists else NB_CELLS  # (a closure constant: Numba prunes the other structure's branches)
+
     @jit
     def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, etab, emd, drive, pairs, t_stop, max_events):
         """Process events in time order until ``t_stop`` (exclusive) or ``max_events``.
@@ -208,7 +217,6 @@ def _make_loop(walls, emd_on, rough, normal, bath_on, kick_on, well, grow):
         bath_t = drive.bath_t
         n = P.shape[0]
         key = q.key
-        mode = ip[L.IP_MODE]
         log_cap = ip[L.IP_LOG_CAP]
         log_walls = log_cap > 0 and ip[L.IP_LOG_WALLS] != 0
         debug = ip[L.IP_DEBUG] != 0
@@ -288,13 +296,17 @@ def _make_loop(walls, emd_on, rough, normal, bath_on, kick_on, well, grow):
                         if log_walls and vn > 0.0:  # (an impact: the particle approached the wall)
                             _log_collision(clog, cnt, log_cap, t, i, -1 - wall, vn, vt)  # partner -1 - (2 axis + face)
                     count[i] += 1
-                elif kind == L.AUX_SHELL:  # the particle left the shell of its neighbour list
+                elif use_lists and kind == L.AUX_SHELL:  # the particle left the shell of its neighbour list
                     advance(P, i, t, geo)
                     wrap_into_box(P, image, i, t, geo)
                     cnt[L.C_REBUILD] += 1
-                    if not rebuild_list(i, P, grid, lists, geo, skin, lists_reach, cbuf):
+                    added = rebuild_list(i, P, grid, lists, geo, skin, lists_reach, cbuf)
+                    if added < 0:
                         return L.ST_LIST_FULL
-                elif kind >= L.AUX_CELL and kind < L.AUX_WALL:  # a cell crossing (the most frequent
+                    if not (well or grow):  # (the new neighbours only)
+                        predict_added(i, t, P, count, ev, grid, lists, geo, cbuf, skin, added, pending)
+                        pair = False
+                elif not use_lists and kind >= L.AUX_CELL and kind < L.AUX_WALL:  # a cell crossing (the most frequent
                     # event of dilute gases): a path of its own
                     cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf, pending)
                     predict_aux(i, t, P, ev, grid, lists, geo, mode, walls, wall_axes, emd_on, skin, ptb, bath_on, bath_t, grow, rate)
@@ -365,8 +377,8 @@ def _make_loop(walls, emd_on, rough, normal, bath_on, kick_on, well, grow):
                     # mixes their branch histories, which cost cell-mode gases 20-30 % (measured).
                     # An eMD* A event in cells mode has predicted both partners' pair events in
                     # its relocation scans (emdstar.relocation_scan)
-                    predicted = emd_on and outcome == CONTACT_SOFT and mode != NB_LIST
-                    if mode == NB_LIST:  # j's neighbours load while i's are tested
+                    predicted = emd_on and outcome == CONTACT_SOFT and not use_lists
+                    if use_lists:  # j's neighbours load while i's are tested
                         prefetch_neighbours(P, lists, j)
                     if not predicted:
                         predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, reach, grow, rate, skin, pending)

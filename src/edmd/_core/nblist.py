@@ -52,17 +52,17 @@ def _found_again(nbl, i, kept, j):
 @leaf
 def _forget_departed(nbl, nbl_n, i):
     """Drop ``i`` from the lists of its old neighbours not found again (the entries ``~k`` of its
-    list) and close the gaps in its own list."""
-    s = 0
-    while s < nbl_n[i]:
+    list) and close the gaps in its own list, keeping the order of the rest: the neighbours a
+    rebuild adds stay the last entries (:func:`rebuild_list`)."""
+    kept = 0
+    for s in range(nbl_n[i]):
         k = nbl[i, s]
         if k < 0:
             _drop(nbl, nbl_n, ~k, i)
-            last = nbl_n[i] - 1
-            nbl[i, s] = nbl[i, last]
-            nbl_n[i] = last
         else:
-            s += 1
+            nbl[i, kept] = k
+            kept += 1
+    nbl_n[i] = kept
 
 
 @leaf
@@ -74,7 +74,8 @@ def _link_neighbours(i, P, grid, lists, geo, skin, reach, cbuf, only_higher, kep
     no columns are only counted (both sizes grow, nothing is stored). The first
     ``kept`` entries of ``i``'s list are its old neighbours as ``~k`` (a rebuild): one found again
     is restored in place, and its own list, which still holds ``i``, is not touched.
-    Returns ``False`` when a list is full.
+    Returns the number of neighbours appended to ``i``'s list (not found again), ``-1`` when a
+    list is full.
     """
     nbl, nbl_n, centre = lists.members, lists.size, lists.centre
     cap = nbl.shape[1]
@@ -85,7 +86,7 @@ def _link_neighbours(i, P, grid, lists, geo, skin, reach, cbuf, only_higher, kep
     near, far = ri + reach * grid.size[GF_RMIN], ri + reach * grid.size[GF_RMAX]
     nc, s, j = walk_near(grid, grid.cell[i], geo, cbuf, cx, cy, cz, far)
     prefetch_firsts(grid, cbuf, nc, s, centre)
-    tested = 0
+    tested = added = 0
     while j >= 0:
         if j != i and (j > i or not only_higher):
             tested += 1
@@ -101,16 +102,17 @@ def _link_neighbours(i, P, grid, lists, geo, skin, reach, cbuf, only_higher, kep
                     ni = nbl_n[i]
                     nj = nbl_n[j]
                     if ni >= cap or nj >= cap:
-                        return False
+                        return -1
                     nbl[i, ni] = j
                     nbl_n[i] = ni + 1
                     nbl[j, nj] = i
                     nbl_n[j] = nj + 1
+                    added += 1
         nc, s, j = walk_next(grid, cbuf, nc, s, j)
     count_work(grid, nc, tested)
     if kept > 0:  # (a rebuild whose departed still hold slots; an initial build has none)
         _forget_departed(nbl, nbl_n, i)
-    return True
+    return added
 
 
 @leaf
@@ -132,7 +134,10 @@ def place_centre(i, P, grid, lists, geo):
 
 @jit
 def rebuild_list(i, P, grid, lists, geo, skin, reach, cbuf):
-    """Re-centre the neighbour list of ``i`` at its stored position (streamed and wrapped by the caller)."""
+    """Re-centre the neighbour list of ``i`` at its stored position (streamed and wrapped by the
+    caller). Returns how many entries it appended, the last ones of ``i``'s list (``-1``: a list
+    is full): every neighbour not listed before (and, if a full row freed its departed mid-walk,
+    the old ones found after that)."""
     nbl, nbl_n = lists.members, lists.size
     kept = nbl_n[i]
     for s in range(kept):  # (most stay neighbours: their lists, far in memory, are touched only if not)
@@ -163,7 +168,7 @@ def build_lists(P, grid, lists, geo, skin, reach, cbuf):
     for i in range(n):
         place_centre(i, P, grid, lists, geo)
     for i in range(n):
-        if not _link_neighbours(i, P, grid, lists, geo, skin, reach, cbuf, True, 0):
+        if _link_neighbours(i, P, grid, lists, geo, skin, reach, cbuf, True, 0) < 0:
             return False
     return lists.members.shape[1] > 0
 

@@ -221,6 +221,31 @@ def predict_pair(i, t, P, count, ev, grid, lists, geo, mode, cbuf, pairs, well, 
         scan_neighbourhood(i, t, P, count, ev, grid, geo, cbuf, pending)
 
 
+@jit
+def predict_added(i, t, P, count, ev, grid, lists, geo, cbuf, skin, added, pending):
+    """Improve the pair event of ``i`` with the ``added`` neighbours its list rebuild gave it (the
+    last entries of its list, :func:`.nblist.rebuild_list`) instead of a full :func:`predict_pair`.
+
+    A rebuild leaves every flight as it was, so the contacts with the neighbours kept are still
+    covered by the events predicted before (the Lubachevsky invariant, physics.md §1.5), and a new
+    contact earlier than ``i``'s event only makes that event earlier. In a sheared box also the
+    partners across the sliding face until the new shell's exit (:func:`sliding_partners`).
+    Hard-sphere contacts only: square wells and growth set event kinds and re-predict in full.
+    Called, not inlined: a shell exit is a rare event.
+    """
+    nbl, n = lists.members, lists.size[i]
+    xi, yi, zi, vxi, vyi, vzi = flight(P, i, t, geo)
+    ri = P[i, L.R]
+    best, bj = ev.pair_t[i] - t, -1
+    pend = pending_of(i, t, pending)
+    count_work(grid, 0, added)
+    for s in range(n - added, n):
+        best, bj = _closer(i, xi, yi, zi, vxi, vyi, vzi, ri, P, nbl[i, s], t, geo, best, bj, pend, pending)
+    best, bj = sliding_partners(i, xi, yi, zi, vxi, vyi, vzi, ri, P, t, grid, lists, geo, cbuf, skin, best, bj, pend, pending)
+    if bj >= 0:
+        set_pair(ev, count, i, t + best, bj)
+
+
 @leaf
 def warm_next(q, P, count, ev, grid, lists, mode):
     """Start loading what the next event will read (:mod:`.prefetch`): the particle of the next

@@ -458,22 +458,27 @@ def _announce_compiles():
 @app.command("compile")
 def compile_(
     features: list[str] = typer.Argument(None, help="Feature sets, e.g. plain walls+rough emdstar (default: plain)."),
-    all_: bool = typer.Option(False, "--all", help="Every feature set (88 variants, some minutes)."),
+    all_: bool = typer.Option(False, "--all", help="Every feature set (142 variants with both neighbour structures, an hour or more)."),
+    neighbours: str = typer.Option("both", "--neighbours", help="cells, list or both (what neighbours='auto' may pick)."),
 ):
     """Compile the event loop ahead of time for these feature sets (for a cluster image, sweep workers or CI).
 
     Features: plain, or walls, rough, soft (viscoelastic), emdstar, bath, noise, vibration, well, grow,
-    shear joined by '+'. Debug mode needs no variant of its own.
+    shear joined by '+'; each with the neighbour structures asked for (well and grow: lists only).
+    Debug mode needs no variant of its own.
     """
-    from .precompile import FeatureError, all_feature_sets, compile_features, parse_features
+    from .precompile import LISTS_ONLY, FeatureError, all_feature_sets, compile_features, neighbour_structures, parse_features
 
     try:
         sets = all_feature_sets() if all_ else [parse_features(f) for f in (features or ["plain"])]
+        jobs = [(found, mode) for found in sets for mode in neighbour_structures(found, neighbours)]
     except FeatureError as exc:
         _fail(str(exc))
-    for found in sets:
-        with console.status(f"compiling {'+'.join(sorted(found)) or 'plain'} ..."):
-            name, seconds, cached = compile_features(found)
+    if not jobs:
+        _fail(f"no variant to compile: {', '.join(sorted(LISTS_ONLY))} run with lists only")
+    for found, mode in jobs:
+        with console.status(f"compiling {'+'.join(sorted(found)) or 'plain'} ({mode}) ..."):
+            name, seconds, cached = compile_features(found, mode)
         console.print(f"{name}: {'already cached' if cached else 'compiled'} ({seconds:.1f} s)")
 
 

@@ -1,9 +1,11 @@
 """Compile the event loop ahead of time (``edmd compile``): one cached variant per feature set.
 
 A run compiles only the loop variant of its physics (:func:`edmd._core.loop.loop_variant`): walls,
-eMD*, a tangential law and the normal law. The first run of each feature set pays that compile
-(about 15-45 CPU-seconds); later runs load it from Numba's on-disk cache. A cluster image, a
-sweep's workers or CI can warm the cache for the feature sets they will use.
+eMD*, a tangential law and the normal law, and its neighbour structure (cells or lists). The first
+run of each feature set pays that compile (about 15-45 CPU-seconds); later runs load it from
+Numba's on-disk cache. A cluster image, a sweep's workers or CI can warm the cache for the feature
+sets they will use, with both neighbour structures (``neighbours = "auto"`` picks either by density)
+or the one their runs use.
 
 Features are written as ``+``-joined names: ``plain``, ``walls``, ``rough``, ``soft`` (the central
 restitution of a contact law used instantaneously: viscoelastic spheres, ``viscoelastic`` is
@@ -12,8 +14,9 @@ another name for it), ``emdstar`` (``emdstar+rough``: frictional eMD*),
 :class:`edmd.WhiteNoise`), ``vibration`` (a vibrating wall, :class:`edmd.VibratingWall`: the
 walls variant compiled for its geometry), ``well`` (square wells, :class:`edmd.SquareWell`), ``grow``
 (growing particles, :func:`edmd.compress`), ``shear`` (Lees-Edwards shear, :class:`edmd.Shear`: a
-variant compiled for its geometry), e.g. ``walls+rough+soft``. Debug mode (``[engine] debug``) is
-a run-time switch of every variant and needs no compile of its own.
+variant compiled for its geometry), e.g. ``walls+rough+soft``. Square wells and growth run with
+lists only. Debug mode (``[engine] debug``) is a run-time switch of every variant and needs no
+compile of its own.
 """
 
 from __future__ import annotations
@@ -26,6 +29,10 @@ from .._core.jit import in_disk_cache
 from .._core.loop import GEO_ARG, loop_variant
 
 FEATURES = ("walls", "rough", "soft", "emdstar", "bath", "noise", "vibration", "well", "grow", "shear")
+#: the neighbour structures a feature set can run with (``Simulation``'s ``neighbours`` option)
+NEIGHBOURS = ("cells", "list")
+#: features whose pair events are predicted over neighbour lists only
+LISTS_ONLY = frozenset({"well", "grow"})
 #: other names of features
 SYNONYMS = {"viscoelastic": "soft"}
 
@@ -95,15 +102,30 @@ def all_feature_sets() -> list[frozenset[str]]:
     return sets + driven + vibrated + wells + sheared + [frozenset({"grow"}), frozenset({"grow", "walls"})]
 
 
-def _variant(features: frozenset[str]):
+def neighbour_structures(features: frozenset[str], neighbours: str = "both") -> list[str]:
+    """The neighbour structures to compile ``features`` for: ``neighbours`` (``"cells"``,
+    ``"list"`` or ``"both"``) as far as the features run with them.
+
+    Example:
+        >>> neighbour_structures(parse_features("walls")), neighbour_structures(parse_features("well"))
+        (['cells', 'list'], ['list'])
+        >>> neighbour_structures(parse_features("grow"), "cells")
+        []
+    """
+    if neighbours not in NEIGHBOURS + ("both",):
+        raise FeatureError(f"neighbours must be cells, list or both, got {neighbours!r}")
+    wanted = NEIGHBOURS if neighbours == "both" else (neighbours,)
+    return [mode for mode in wanted if mode == "list" or not features & LISTS_ONLY]
+
+
+def _variant(features: frozenset[str], neighbours: str):
     normal = L.NORMAL_SOFT if features & {"soft", "emdstar"} else L.NORMAL_CONST
-    return loop_variant(
-        *(name in features for name in ("walls", "emdstar", "rough")), normal, *(name in features for name in ("bath", "noise", "well", "grow"))
-    )
+    flags = [name in features for name in ("bath", "noise", "well", "grow")]
+    return loop_variant(*(name in features for name in ("walls", "emdstar", "rough")), normal, *flags, neighbours == "list")
 
 
-def _example(features: frozenset[str]):
-    """A small simulation with exactly these features (its first events compile the variant)."""
+def _example(features: frozenset[str], neighbours: str):
+    """A small simulation with exactly these features and neighbour structure (its first events compile the variant)."""
     import edmd
     from ..physics.collide import Rough
     from ..physics.contact import Hertz
@@ -130,27 +152,28 @@ def _example(features: frozenset[str]):
         growth = Growth(rate=0.01) if "grow" in features else None
         shear = Shear(rate=0.1) if "shear" in features else None
         return edmd.Simulation(
-            state, collision=None if growth else rule, thermostat=bath, forcing=kicks, vibration=shaker, well=well, growth=growth, shear=shear
+            state, collision=None if growth else rule, thermostat=bath, forcing=kicks, vibration=shaker, well=well, growth=growth, shear=shear,
+            engine={"neighbours": neighbours},
         )  # fmt: skip
 
 
-def compile_features(features: frozenset[str]) -> tuple[str, float, bool]:
-    """Compile (or load) the loop variant of ``features``.
+def compile_features(features: frozenset[str], neighbours: str = "cells") -> tuple[str, float, bool]:
+    """Compile (or load) the loop variant of ``features`` with ``neighbours`` (``"cells"`` or ``"list"``).
 
     Returns its name, the seconds it took and whether it was already in the on-disk cache.
 
     Example:
         >>> name, seconds, cached = compile_features(parse_features("plain"))
         >>> name
-        'plain'
+        'plain (cells)'
     """
-    loop = _variant(features)
+    loop = _variant(features, neighbours)
     geo = (0.0,) * (L.G_WALL_STICK + 1 if "vibration" in features else L.N_GEO_SHEAR if "shear" in features else L.G_ON + 1)  # (longer geometries)
     cached = in_disk_cache(loop.run_events, (GEO_ARG, geo))
     start = time.perf_counter()
-    sim = _example(features)
+    sim = _example(features, neighbours)
     if sim.engine.loop is not loop:  # the toy system must have exactly the features asked for
-        raise RuntimeError(f"internal error: {sim.engine.loop.name} built for {loop.name}")
+        raise RuntimeError(f"internal error: {sim.engine.loop.name} ({sim.engine.loop.neighbours}) built for {loop.name} ({loop.neighbours})")
     sim.run(max_events=200)
     geometry = "+vibration" if "vibration" in features else "+shear" if "shear" in features else ""
-    return loop.name + geometry, time.perf_counter() - start, cached
+    return f"{loop.name}{geometry} ({loop.neighbours})", time.perf_counter() - start, cached

@@ -296,11 +296,12 @@ class Engine:
             self.forcing is not None,
             self.well is not None,
             growing,
+            self.mode == "list",
         )
         run_events, geo_type = self.loop.run_events, typeof(self.geo)
         if not any(sig.args[GEO_ARG] == geo_type for sig in run_events.nopython_signatures) and not in_disk_cache(run_events, (GEO_ARG, self.geo)):
             name = self.loop.name + ("+vibration" if self.vibration is not None else "") + ("+shear" if self.shear is not None else "")
-            log.info("compiling the event loop for %s runs (once; cached afterwards, see `edmd compile`)", name)
+            log.info("compiling the event loop for %s runs with %s (once; cached afterwards, see `edmd compile`)", name, self.loop.neighbours)
 
     # ------------------------------------------------------------------ set-up
     def _neighbours_for(self, state: State):
@@ -352,6 +353,8 @@ class Engine:
             skin = min(skin, limit)
         self.mode = mode
         self.ip[L.IP_MODE] = L.NB_LIST if mode == "list" else L.NB_CELLS
+        if hasattr(self, "loop") and self.loop.neighbours != ("lists" if mode == "list" else "cells"):
+            self._select_loop(self._loop_grows)  # (a load chose another structure: its loop)
         self.fp[L.FP_SKIN] = skin
         if mode == "cells":
             self.grid_cells = cells
@@ -903,7 +906,7 @@ class Engine:
                 particle, kind = int(self.tag[self.cnt[L.C_BAD_I]]), int(self.cnt[L.C_BAD_J])
                 raise EngineError(
                     f"particle {particle} has an event of kind {kind} at t = {self.now!r}, which the "
-                    f"{self.loop.name} event loop does not handle (a bug: please report it)"
+                    f"{self.loop.name} event loop ({self.loop.neighbours}) does not handle (a bug: please report it)"
                 )
             elif status != L.ST_EVENTS:
                 return status
