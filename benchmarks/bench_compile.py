@@ -27,6 +27,15 @@ JOBS = {
     "hard_spheres": "import edmd\n"
     "s = edmd.maxwell_boltzmann(edmd.lattice(500, 0.3), 1.0)\n"
     "edmd.Simulation(s).run(max_events=1000)\n",
+    # the same with neighbour lists (the loop variant of the other structure)
+    "hard_spheres_lists": "import edmd\n"
+    "s = edmd.maxwell_boltzmann(edmd.lattice(500, 0.3), 1.0)\n"
+    "edmd.Simulation(s, engine={'neighbours': 'list'}).run(max_events=1000)\n",
+    # both structures in one process (the tests, `edmd compile` with both): two loop variants
+    "hard_spheres_both": "import edmd\n"
+    "s = edmd.maxwell_boltzmann(edmd.lattice(500, 0.3), 1.0)\n"
+    "for mode in ('cells', 'list'):\n"
+    "    edmd.Simulation(s, engine={'neighbours': mode}).run(max_events=1000)\n",
     # the README's first command: the showcase job, from `edmd run` to its end (figures included)
     "showcase": "import sys, tempfile\n"
     "from edmd.app.cli import app\n"

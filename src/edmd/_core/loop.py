@@ -22,7 +22,7 @@ from .collide import collide_pair, collide_wall
 from .emdstar import emd_contact, emd_contact_frictional, execute_b, finish_contact, is_pending
 from .forcing import white_noise_kick
 from .jit import hot, jit, leaf
-from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTACT_GROWN, CONTACT_SOFT, CONTACT_WELL, NB_LIST, NORMAL_SOFT, TANGENT_SMOOTH
+from .layout import CONTACT_DISCARDED, CONTACT_INSTANT, CONTACT_LIST_FULL, CONTACT_GROWN, CONTACT_SOFT, CONTACT_WELL, NB_CELLS, NB_LIST, NORMAL_SOFT, TANGENT_SMOOTH
 from .nblist import build_lists, list_reach, rebuild_list
 from .predict import advance, separation
 from .stress import integrate_sheared
@@ -154,9 +154,10 @@ def loop_variant(
     one of them too: a cells run never compiles shell exits, a lists run neither cell crossings
     nor their inlined scans, and a list rebuild tests only the neighbours it added
     (:func:`.schedule.predict_added`; its call site in a loop shared by both structures ran
-    cell-mode gases 2-5 % slower). The lists variant passes its helpers the structure as a
-    constant; the cells variant reads it at run time (``ip[IP_MODE]``), as the constant ran cell
-    mode slower (paired runs, session 38). Debug mode (``ip[IP_DEBUG]``, one test per collision) is a run-time choice: its check is a
+    cell-mode gases 2-5 % slower). The lists and eMD* variants pass their inlined helpers the
+    structure as a constant; the other cells variants read it at run time (``ip[IP_MODE]``):
+    paired runs measured each form the faster where it is used (session 38: plain cells 1.10
+    for the run-time read, eMD* 1.06 for the constant; the code layout decides). Debug mode (``ip[IP_DEBUG]``, one test per collision) is a run-time choice: its check is a
     called function, compiled once, and as a closure flag it gave every variant that a debug run
     used a twin to compile. So is the set-up (:class:`Loop`'s ``setup_events``), shared by both
     neighbour structures.
@@ -218,8 +219,10 @@ def _make_loop(walls, emd_on, rough, normal, bath_on, kick_on, well, grow, use_l
         bath_t = drive.bath_t
         n = P.shape[0]
         key = q.key
-        if use_lists:  # (read at run time in cells mode: see loop_variant)
+        if use_lists:  # (a constant in the lists and eMD* variants, read at run time in the others: see loop_variant)
             mode = NB_LIST
+        elif emd_on:
+            mode = NB_CELLS
         else:
             mode = ip[L.IP_MODE]
         log_cap = ip[L.IP_LOG_CAP]
