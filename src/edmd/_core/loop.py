@@ -157,10 +157,12 @@ def loop_variant(
     cell-mode gases 2-5 % slower). The lists and eMD* variants pass their inlined helpers the
     structure as a constant; the other cells variants read it at run time (``ip[IP_MODE]``):
     paired runs measured each form the faster where it is used (session 38: plain cells 1.10
-    for the run-time read, eMD* 1.06 for the constant; the code layout decides). Debug mode (``ip[IP_DEBUG]``, one test per collision) is a run-time choice: its check is a
+    for the run-time read, eMD* 1.06 for the constant; the code layout decides).
+
+    Debug mode (``ip[IP_DEBUG]``, one test per collision) is a run-time choice: its check is a
     called function, compiled once, and as a closure flag it gave every variant that a debug run
-    used a twin to compile. So is the set-up (:class:`Loop`'s ``setup_events``), shared by both
-    neighbour structures.
+    used a twin to compile. The set-up (:class:`Loop`'s ``setup_events``) is specialised on the
+    single-particle events only and shared by both neighbour structures.
 
     Args:
         walls: some axis is closed by walls (which ones: ``ip[IP_WALLS]``); without, no wall code.
