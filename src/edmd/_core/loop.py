@@ -205,7 +205,6 @@ def _resting_on_wall(i, t_abs, now_abs, ev):
 
 
 def _make_loop(walls, emd_on, rough, normal, bath_on, kick_on, well, grow, use_lists):
-
     @jit
     def run_events(part, ev, q, grid, lists, geo, fp, ip, acc, cnt, clog, cbuf, etab, emd, drive, pairs, t_stop, max_events):
         """Process events in time order until ``t_stop`` (exclusive) or ``max_events``.
