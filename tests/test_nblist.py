@@ -115,6 +115,7 @@ def test_a_rebuild_of_a_full_list_frees_the_departed_first(dim):
             continue
         P[i, :dim] = x
         added = nblist.rebuild_list(i, P, engine.grid, engine.lists, engine.geo, skin, 1.0, engine.cbuf)
+        assert added >= 0  # (-1: a list ran full)
         row = engine.lists.members[i, : engine.lists.size[i]].tolist()
         assert set(row) == new and set(row[len(row) - added :]) >= new - old  # (old ones found after the free count too)
         assert _listed_pairs(engine) == _pairs_by_distance(engine, dim)
