@@ -9,6 +9,7 @@ import numpy as np
 
 from ._core.geometry import worst_overlap
 from ._core.layout import make_geo
+from ._core.snapshot import S_MASS, S_MASS_HEIGHT, S_PX, S_TWICE_KINETIC, S_TWICE_SPIN
 from .run.neighbours import overlap_grid
 
 #: relative overlap tolerated as round-off (contacts from a running simulation sit at |r| = sigma)
@@ -503,6 +504,10 @@ class State:
             return -0.0
         return -float(self.mass @ (self.unwrapped_position @ np.asarray(gravity, float)))
 
+    def total_mass(self) -> float:
+        """Total mass :math:`M = \\sum_i m_i`."""
+        return float(self.mass.sum())
+
     def momentum(self) -> np.ndarray:
         """Total linear momentum (of the committed velocities)."""
         return _by_blocks(lambda m, v: (m[:, None] * v).sum(axis=0), self.mass, self._committed())
@@ -547,22 +552,89 @@ class StateView(State):
         return State(*args, **fields)
 
     @classmethod
-    def of(cls, n: int, dim: int, fixed: dict, makers: dict, valid) -> StateView:
+    def of(cls, n: int, dim: int, fixed: dict, makers: dict, valid, sums=None) -> StateView:
         """The view of ``n`` particles in ``dim`` dimensions: ``fixed`` the fields that are not
         per particle (box, time, ...), ``makers`` a function per particle field (the pending eMD*
-        contacts default to none), ``valid()`` whether its source still holds."""
+        contacts default to none), ``valid()`` whether its source still holds.
+
+        ``sums(u, flow, gravity)``, if given, sums over the particles in one pass of the source's
+        own (the entries of :func:`edmd._core.snapshot.particle_sums`): the total mass, momentum,
+        energies and temperature then read no field (a thermo row made four copies of the
+        velocities, each scattered into the user's order)."""
         view = object.__new__(cls)
         view.__dict__.update(fixed)
         view.__dict__.setdefault("captured_pairs", None)
-        view._n, view._dim, view._valid = n, dim, valid
+        view._n, view._dim, view._valid, view._sums, view._flow, view._summed = n, dim, valid, sums, 0.0, {}
         none = dict(zip(("pending_velocity", "pending_until", "pending_partner"), _no_pending(n, dim)))
         view._makers = {**{name: (lambda value=value: value) for name, value in none.items()}, **makers}
         return view
 
-    def _make(self, name: str) -> np.ndarray:
+    def _check_valid(self):
         if not self._valid():
             raise RuntimeError("this state view is out of date (the simulation went on): take Simulation.state to keep a state")
+
+    def _make(self, name: str) -> np.ndarray:
+        self._check_valid()
         return self._makers[name]()
+
+    def _summed_over(self, u=(0.0, 0.0, 0.0), gravity=(0.0, 0.0, 0.0)) -> np.ndarray:
+        """The source's sums (:meth:`of`) relative to ``u`` and this view's flow, kept for the view's life."""
+        self._check_valid()
+        key = (tuple(map(float, u)), tuple(map(float, gravity)))
+        if key not in self._summed:
+            self._summed[key] = self._sums(u, self._flow, gravity)
+        return self._summed[key]
+
+    def relative_to_shear(self, rate: float) -> StateView:
+        r"""This view with velocities relative to the shear flow :math:`\dot\gamma y\hat{\mathbf x}`
+        (:meth:`edmd.Shear.peculiar_state`), still made when read."""
+        makers = dict(self._makers)
+        velocity, position = makers["velocity"], makers["position"]
+
+        def peculiar():
+            v = np.array(velocity(), float)
+            v[:, 0] -= rate * position()[:, 1]
+            return v
+
+        makers["velocity"] = peculiar
+        fixed = {k: v for k, v in self.__dict__.items() if not k.startswith("_")}
+        view = StateView.of(self._n, self._dim, fixed, makers, self._valid, self._sums)
+        view._flow = self._flow + float(rate)
+        return view
+
+    def total_mass(self) -> float:
+        if self._sums is None:
+            return super().total_mass()
+        return float(self._summed_over()[S_MASS])
+
+    def momentum(self) -> np.ndarray:
+        if self._sums is None:
+            return super().momentum()
+        return self._summed_over()[S_PX : S_PX + self._dim].copy()
+
+    def kinetic_energy(self) -> float:
+        if self._sums is None:
+            return super().kinetic_energy()
+        return 0.5 * float(self._summed_over()[S_TWICE_KINETIC])
+
+    def temperature(self) -> float:
+        if self._sums is None:
+            return super().temperature()
+        s = self._summed_over()
+        u = s[S_PX : S_PX + self._dim] / s[S_MASS]
+        return float(self._summed_over(u)[S_TWICE_KINETIC] / (self._dim * self._n))
+
+    def rotational_energy(self) -> float:
+        if self._sums is None:
+            return super().rotational_energy()
+        return 0.5 * float(self._summed_over()[S_TWICE_SPIN])
+
+    def potential_energy(self, gravity) -> float:
+        if self._sums is None or gravity is None or not np.any(gravity):
+            return super().potential_energy(gravity)
+        g = np.zeros(3)
+        g[: self._dim] = np.asarray(gravity, float)[: self._dim]
+        return -float(self._summed_over(gravity=g)[S_MASS_HEIGHT])
 
     @property
     def n(self) -> int:

@@ -1,4 +1,4 @@
-"""Non-disturbing observation: stream copies of all particles to one instant."""
+"""Non-disturbing observation: stream copies of all particles to one instant, or sum over them there."""
 
 import math
 
@@ -96,3 +96,70 @@ def stream_rows(P, image, t, d, geo, reach, lo):
             if not ok:
                 bad = i
     return bad
+
+
+
+#: the entries of :func:`particle_sums`: total mass, momentum (x, y, z), twice the kinetic energy
+#: relative to a velocity ``u``, twice the rotational energy, and :math:`\sum_i m_i\,\mathbf g\cdot\mathbf r_i`
+S_MASS, S_PX, S_PY, S_PZ, S_TWICE_KINETIC, S_TWICE_SPIN, S_MASS_HEIGHT, N_SUMS = range(8)
+
+
+@leaf
+def _add(s, c, k, x):
+    """``s[k] += x``, its rounding error added to ``c[k]`` (Neumaier's compensated sum)."""
+    a = s[k]
+    b = a + x
+    c[k] += (a - b) + x if abs(a) >= abs(x) else (x - b) + a
+    s[k] = b
+
+
+@jit
+def particle_sums(P, mass, image, pending, omega, inertia, t, d, geo, u, flow, g, s, c):
+    r"""The sums over particles at local time ``t`` that a thermo row needs, in one pass over the
+    engine's rows (no array of every particle; the order of the particles does not matter), into
+    ``s`` (:data:`N_SUMS` entries; ``c``: as many of scratch).
+
+    With :math:`\mathbf c_i` the committed velocity (physics.md §4.8: the pending eMD* increment
+    ``pending[i]`` added; ``pending`` of no rows without eMD*) relative to the flow
+    :math:`\dot\gamma y_i\hat{\mathbf x}` (``flow`` :math:`=\dot\gamma`, 0 without shear;
+    physics.md §5.8):
+
+    .. math::
+        M = \sum_i m_i,\quad \mathbf p = \sum_i m_i\mathbf c_i,\quad
+        \sum_i m_i|\mathbf c_i - \mathbf u|^2,\quad \sum_i I_i|\boldsymbol\omega_i|^2,\quad
+        \sum_i m_i\,\mathbf g\cdot(\mathbf r_i + \mathbf n_i\mathbf L)
+
+    (spins: ``omega`` and ``inertia`` of no rows when nothing turns; 2D: :math:`\omega_z`;
+    positions unwrapped by their image counts :math:`\mathbf n_i`, read only when
+    :math:`\mathbf g \ne 0`). Each sum is compensated (Neumaier), so it is exact to a few units
+    of round-off at any :math:`N`.
+    """
+    s[:] = 0.0
+    c[:] = 0.0
+    gravity = g[0] != 0.0 or g[1] != 0.0 or g[2] != 0.0
+    for i in range(P.shape[0]):
+        m = mass[i]
+        x, y, z, vx, vy, vz, mx, my, mz = streamed(P, image, i, t, geo)
+        if pending.shape[0]:
+            vx += pending[i, 0]
+            vy += pending[i, 1]
+            vz += pending[i, 2]
+        vx -= flow * y
+        v = (vx, vy, vz)
+        w2 = 0.0
+        for k in range(d):
+            _add(s, c, S_PX + k, m * v[k])
+            w2 += (v[k] - u[k]) ** 2
+        _add(s, c, S_MASS, m)
+        _add(s, c, S_TWICE_KINETIC, m * w2)
+        if omega.shape[0]:
+            spin = omega[i, 0] ** 2 + omega[i, 1] ** 2 + omega[i, 2] ** 2 if d == 3 else omega[i, 2] ** 2
+            _add(s, c, S_TWICE_SPIN, inertia[i] * spin)
+        if gravity:
+            r = (x + mx * geo[0], y + my * geo[1], z + mz * geo[2])
+            h = 0.0
+            for k in range(d):
+                h += g[k] * r[k]
+            _add(s, c, S_MASS_HEIGHT, m * h)
+    for k in range(N_SUMS):
+        s[k] += c[k]

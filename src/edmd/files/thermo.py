@@ -55,7 +55,7 @@ def pressure(state: State, d_kinetic_integral: float, d_virial: float, dt: float
     if dt <= 0:
         return math.nan
     p = state.momentum()
-    kin = 2.0 * d_kinetic_integral / dt - float(p @ p) / state.mass.sum()
+    kin = 2.0 * d_kinetic_integral / dt - float(p @ p) / state.total_mass()
     return (kin + d_virial / dt) / (state.dim * state.volume)
 
 
@@ -86,11 +86,11 @@ def pressure_tensor(state: State, d_stress_integral: np.ndarray, dt: float) -> d
         >>> {k: round(v, 9) for k, v in p.items()}
         {'pressure_xx': 1.0, 'pressure_yy': 2.0, 'pressure_xy': 0.5}
     """
-    p = state.momentum()
+    p, mass = state.momentum(), state.total_mass()
     out = {}
     for c, name in tensor_components(state.dim):
         a, b = TENSOR_AXES[c]
-        flow = float(p[a] * p[b]) / state.mass.sum()
+        flow = float(p[a] * p[b]) / mass
         out[f"pressure_{name}"] = float((d_stress_integral[c] / dt - flow) / state.volume)
     return out
 

@@ -18,7 +18,7 @@ import numbers
 
 import numpy as np
 
-from ..state import State
+from ..state import State, StateView
 
 
 @dataclasses.dataclass(frozen=True)
@@ -62,7 +62,10 @@ class Shear:
         return c
 
     def peculiar_state(self, state: State) -> State:
-        """``state`` with its velocities relative to the flow (:meth:`peculiar_velocity`)."""
+        """``state`` with its velocities relative to the flow (:meth:`peculiar_velocity`); of a
+        :class:`~edmd.state.StateView`, a view (:meth:`~edmd.state.StateView.relative_to_shear`)."""
+        if isinstance(state, StateView):
+            return state.relative_to_shear(self.rate)
         return dataclasses.replace(state, velocity=self.peculiar_velocity(state), check_overlaps=False)
 
     def with_profile(self, state: State) -> State:

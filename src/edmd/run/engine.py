@@ -28,7 +28,7 @@ from .._core.jit import in_disk_cache
 from .._core.loop import GEO_ARG, integrate_kinetic, loop_variant
 from .._core.wallmotion import rider_axis
 from .._core.queue import QI_MOVED, calendar_shape, new_queue, queue_build
-from .._core.snapshot import IMAGES, POSITIONS, VELOCITIES, stream_all, stream_rows
+from .._core.snapshot import IMAGES, N_SUMS, POSITIONS, VELOCITIES, particle_sums, stream_all, stream_rows
 from .._core.nblist import list_reach
 from .._core.wells import capture_by_distance, captured_pairs, load_captured, well_reach
 from ..physics import collide
@@ -181,6 +181,13 @@ def _inverse(order: np.ndarray, dtype=np.int32) -> np.ndarray:
 def _partners(partner: np.ndarray, inverse: np.ndarray) -> np.ndarray:
     """Partner indices ``partner`` (-1: none) renumbered by ``inverse`` (:func:`_inverse`), int32."""
     return np.where(partner >= 0, inverse[np.maximum(partner, 0)], -1).astype(np.int32)
+
+
+def _vector3(v) -> np.ndarray:
+    """A 2D or 3D vector as three float64 components (2D: z = 0)."""
+    out = np.zeros(3)
+    out[: len(v)] = v
+    return out
 
 
 def _permuted(a: np.ndarray, perm: np.ndarray) -> np.ndarray:
@@ -1054,6 +1061,18 @@ class Engine:
         those to make, :func:`edmd._core.snapshot.stream_all`; the others have no rows)."""
         return stream_all(self.part.rows, self.part.image, self.tag, t - self.t_origin, self.dim, self.geo, which)
 
+    def sums(self, t: float, u=(0.0, 0.0, 0.0), flow: float = 0.0, gravity=(0.0, 0.0, 0.0)) -> np.ndarray:
+        """The sums over the particles at absolute time ``t`` that a thermo row needs, indexed by
+        ``edmd._core.snapshot.S_*``: :func:`~edmd._core.snapshot.particle_sums` of the committed
+        velocities relative to ``u`` and to the shear flow of rate ``flow``, in one pass over the
+        engine's own rows (no copy of every particle, no user order)."""
+        p = self.part
+        pending = self.emd.pending_dv if self.emd_rule is not None else np.zeros((0, 3))
+        s = np.zeros(N_SUMS)
+        particle_sums(p.rows, p.mass, p.image, pending, p.omega, p.inertia, t - self.t_origin, self.dim, self.geo,
+                      _vector3(u), float(flow), _vector3(gravity), s, np.zeros(N_SUMS))  # fmt: skip
+        return s
+
     def _user_order(self, values: np.ndarray) -> np.ndarray:
         """``values`` of the particles in internal order, in the user's order."""
         out = np.empty_like(values)
@@ -1133,7 +1152,7 @@ class Engine:
             return int(self.cnt[L.C_EVENTS]), self.t_origin, id(self.part)
 
         made = mark()
-        return StateView.of(self.n, self.dim, fixed, makers, lambda: mark() == made)
+        return StateView.of(self.n, self.dim, fixed, makers, lambda: mark() == made, lambda u, flow, gravity: self.sums(t, u, flow, gravity))
 
     def shear_offset(self, t: float) -> float:
         """The offset of the Lees-Edwards images above the box at absolute time ``t`` (0 without shear),
