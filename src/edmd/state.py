@@ -505,7 +505,13 @@ class State:
         return -float(self.mass @ (self.unwrapped_position @ np.asarray(gravity, float)))
 
     def total_mass(self) -> float:
-        """Total mass :math:`M = \\sum_i m_i`."""
+        """Total mass :math:`M = \\sum_i m_i`.
+
+        Example:
+            >>> import edmd
+            >>> round(edmd.lattice(8, 0.1, density=2.0).total_mass(), 9)  # 8 spheres of diameter 1: 8 * 2 pi / 6
+            8.37758041
+        """
         return float(self.mass.sum())
 
     def momentum(self) -> np.ndarray:
@@ -534,7 +540,9 @@ class StateView(State):
     """A :class:`State` whose per-particle fields are made when read, a new array at every read
     (none is kept): what an engine gives the observers that read their state only while they
     fire (:attr:`edmd.run.observer.Observer.reads_once`; ``Simulation.state_view()``), instead of a
-    copy of every particle. Everything a State computes works on it; :meth:`copy` (and
+    copy of every particle. Everything a State computes works on it; an engine's view sums its
+    total mass, momentum, energies and temperature over the engine's own arrays in one pass each
+    (:meth:`of`'s ``sums``: equal to a copy's to round-off), without making a field. :meth:`copy` (and
     ``dataclasses.replace``) make a plain State. It is readable only as long as its source is
     unchanged (``RuntimeError`` afterwards: take ``Simulation.state`` to keep a state). An engine's
     view gives its images as the engine keeps them, int32 (a copy's are int64).
@@ -587,7 +595,16 @@ class StateView(State):
 
     def relative_to_shear(self, rate: float) -> StateView:
         r"""This view with velocities relative to the shear flow :math:`\dot\gamma y\hat{\mathbf x}`
-        (:meth:`edmd.Shear.peculiar_state`), still made when read."""
+        (:meth:`edmd.Shear.peculiar_state`), still made when read.
+
+        Example:
+            >>> import edmd
+            >>> shear = edmd.Shear(rate=0.5)
+            >>> s = shear.with_profile(edmd.maxwell_boltzmann(edmd.lattice(64, 0.2), 1.0, seed=1))
+            >>> view = edmd.Simulation(s, shear=shear).state_view().relative_to_shear(0.5)
+            >>> round(view.temperature(), 12), bool(abs(view.velocity - s.velocity).max() > 0.1)
+            (1.0, True)
+        """
         makers = dict(self._makers)
         velocity, position = makers["velocity"], makers["position"]
 
