@@ -29,10 +29,11 @@ import time
 from bench_hard_spheres import write_results
 
 
-def make_case(n: int, eta: float, neighbours: str, walls: bool, dim: int, emdstar: bool, replicate: int, package=None):
+def make_case(n: int, eta: float, neighbours: str, walls: bool, dim: int, emdstar: bool, replicate: int, package=None, rough: bool = False):
     """The Simulation of a benchmark case (also :mod:`profile_loop`'s), equilibrated for 20 events
     per particle (which also compiles). ``package``: the edmd build to use (:mod:`bench_same_process`;
-    hard spheres only), else the one imported as ``edmd``."""
+    hard spheres only), else the one imported as ``edmd``. ``rough``: perfectly rough elastic
+    spheres (``e_n = 1``, ``beta = 1``: energy conserved, shared between translation and spin)."""
     import edmd
 
     if package is not None:
@@ -50,15 +51,16 @@ def make_case(n: int, eta: float, neighbours: str, walls: bool, dim: int, emdsta
         sim = edmd.Simulation(state, collision=EMDStar(contact_law()), engine={"neighbours": neighbours})
     else:
         start = edmd.random_packing(n // replicate**dim, eta, dim=dim, seed=1, periodic=periodic)
-        state = edmd.maxwell_boltzmann(edmd.replicate(start, [replicate] * dim) if replicate > 1 else start, 1.0, seed=2)
-        sim = edmd.Simulation(state, engine={"neighbours": neighbours})
+        state = edmd.maxwell_boltzmann(edmd.replicate(start, [replicate] * dim) if replicate > 1 else start, 1.0, seed=2, spin=rough)
+        rule = edmd.physics.collide.Rough(e_n=1.0, beta=1.0) if rough else None
+        sim = edmd.Simulation(state, collision=rule, engine={"neighbours": neighbours})
     sim.run(max_events=20 * n)
     return sim
 
 
-def worker(n: int, eta: float, neighbours: str, chunk: float, walls: bool, dim: int, emdstar: bool, replicate: int) -> None:
+def worker(n: int, eta: float, neighbours: str, chunk: float, walls: bool, dim: int, emdstar: bool, replicate: int, rough: bool = False) -> None:
     """Serve chunks: read a line, run ``chunk * n`` events, print the collision rate."""
-    sim = make_case(n, eta, neighbours, walls, dim, emdstar, replicate)
+    sim = make_case(n, eta, neighbours, walls, dim, emdstar, replicate, rough=rough)
     print("ready", *_huge_pages(), flush=True)
     for _line in sys.stdin:
         c0, t0 = sim.collisions, time.process_time()
@@ -78,7 +80,7 @@ def _huge_pages() -> tuple[int, int]:
 
 def start(tree: str, args) -> subprocess.Popen:
     env = {**os.environ, "PYTHONPATH": os.path.join(os.path.abspath(tree), "src")}
-    cmd = [sys.executable, __file__, "--worker", "--n", str(args.n), "--eta", str(args.eta), "--neighbours", args.neighbours, "--chunk", str(args.chunk), "--dim", str(args.dim), "--replicate", str(args.replicate)] + (["--walls"] if args.walls else []) + (["--emdstar"] if args.emdstar else [])
+    cmd = [sys.executable, __file__, "--worker", "--n", str(args.n), "--eta", str(args.eta), "--neighbours", args.neighbours, "--chunk", str(args.chunk), "--dim", str(args.dim), "--replicate", str(args.replicate)] + (["--walls"] if args.walls else []) + (["--emdstar"] if args.emdstar else []) + (["--rough"] if args.rough else [])
     proc = subprocess.Popen(["taskset", "-c", str(args.core), *cmd], env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     ready = proc.stdout.readline().split()
     if not ready or ready[0] != "ready":
@@ -108,11 +110,12 @@ def main():
     ap.add_argument("--dim", type=int, default=3)
     ap.add_argument("--replicate", type=int, default=1, help="relax n / k^dim particles and tile them k times per axis (large N; hard spheres)")
     ap.add_argument("--emdstar", action="store_true", help="eMD* (the viscoelastic gas of bench_emdstar.py) instead of elastic hard spheres")
+    ap.add_argument("--rough", action="store_true", help="perfectly rough elastic spheres (e_n = 1, beta = 1; the rough loop variant)")
     ap.add_argument("--out", default=None)
     ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.worker:
-        return worker(args.n, args.eta, args.neighbours, args.chunk, args.walls, args.dim, args.emdstar, args.replicate)
+        return worker(args.n, args.eta, args.neighbours, args.chunk, args.walls, args.dim, args.emdstar, args.replicate, args.rough)
     ra, rb, pair_medians = [], [], []
     for p in range(args.pairs):
         # the process started first may find more free huge pages: the order alternates too
@@ -144,7 +147,7 @@ def main():
     print(f"A: best {summary['A']['best']:.4f} median {summary['A']['median']:.4f} M collisions/s")
     print(f"B: best {summary['B']['best']:.4f} median {summary['B']['median']:.4f} M collisions/s")
     print(f"B/A per round: median {statistics.median(ratios):.4f} (min {min(ratios):.4f}, max {max(ratios):.4f}, {args.rounds} rounds x {args.pairs} pairs)")
-    out = args.out or f"benchmarks/results/paired_{args.n}_{args.eta}_{args.neighbours}{'_2d' if args.dim == 2 else ''}{'_emdstar' if args.emdstar else ''}.json"
+    out = args.out or f"benchmarks/results/paired_{args.n}_{args.eta}_{args.neighbours}{'_2d' if args.dim == 2 else ''}{'_emdstar' if args.emdstar else ''}{'_rough' if args.rough else ''}.json"
     write_results(out, args, [summary])
 
 
