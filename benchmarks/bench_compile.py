@@ -36,6 +36,11 @@ JOBS = {
     "s = edmd.maxwell_boltzmann(edmd.lattice(500, 0.3), 1.0)\n"
     "for mode in ('cells', 'list'):\n"
     "    edmd.Simulation(s, engine={'neighbours': mode}).run(max_events=1000)\n",
+    # rough spheres (the tangential rule and spins in the loop) to their first events
+    "rough": "import edmd\n"
+    "from edmd.physics.collide import Rough\n"
+    "s = edmd.maxwell_boltzmann(edmd.lattice(500, 0.3), 1.0, spin=True)\n"
+    "edmd.Simulation(s, collision=Rough(e_n=0.9, beta=0.5)).run(max_events=1000)\n",
     # the README's first command: the showcase job, from `edmd run` to its end (figures included)
     "showcase": "import sys, tempfile\n"
     "from edmd.app.cli import app\n"

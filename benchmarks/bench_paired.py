@@ -29,11 +29,13 @@ import time
 from bench_hard_spheres import write_results
 
 
-def make_case(n: int, eta: float, neighbours: str, walls: bool, dim: int, emdstar: bool, replicate: int, package=None, rough: bool = False):
+def make_case(n: int, eta: float, neighbours: str, walls: bool, dim: int, emdstar: bool, replicate: int, package=None, rough: bool = False, bath: bool = False):
     """The Simulation of a benchmark case (also :mod:`profile_loop`'s), equilibrated for 20 events
     per particle (which also compiles). ``package``: the edmd build to use (:mod:`bench_same_process`;
     hard spheres only), else the one imported as ``edmd``. ``rough``: perfectly rough elastic
-    spheres (``e_n = 1``, ``beta = 1``: energy conserved, shared between translation and spin)."""
+    spheres (``e_n = 1``, ``beta = 1``: energy conserved, shared between translation and spin).
+    ``bath``: an Andersen heat bath at ``kT = 1`` that re-draws a particle's velocity 0.05 times per
+    unit time (about one bath event per ten collisions at eta = 0.05)."""
     import edmd
 
     if package is not None:
@@ -53,14 +55,15 @@ def make_case(n: int, eta: float, neighbours: str, walls: bool, dim: int, emdsta
         start = edmd.random_packing(n // replicate**dim, eta, dim=dim, seed=1, periodic=periodic)
         state = edmd.maxwell_boltzmann(edmd.replicate(start, [replicate] * dim) if replicate > 1 else start, 1.0, seed=2, spin=rough)
         rule = edmd.physics.collide.Rough(e_n=1.0, beta=1.0) if rough else None
-        sim = edmd.Simulation(state, collision=rule, engine={"neighbours": neighbours})
+        bath_rule = edmd.Andersen(kT=1.0, rate=0.05, seed=4) if bath else None
+        sim = edmd.Simulation(state, collision=rule, thermostat=bath_rule, engine={"neighbours": neighbours})
     sim.run(max_events=20 * n)
     return sim
 
 
-def worker(n: int, eta: float, neighbours: str, chunk: float, walls: bool, dim: int, emdstar: bool, replicate: int, rough: bool = False) -> None:
+def worker(n: int, eta: float, neighbours: str, chunk: float, walls: bool, dim: int, emdstar: bool, replicate: int, rough: bool = False, bath: bool = False) -> None:
     """Serve chunks: read a line, run ``chunk * n`` events, print the collision rate."""
-    sim = make_case(n, eta, neighbours, walls, dim, emdstar, replicate, rough=rough)
+    sim = make_case(n, eta, neighbours, walls, dim, emdstar, replicate, rough=rough, bath=bath)
     print("ready", *_huge_pages(), flush=True)
     for _line in sys.stdin:
         c0, t0 = sim.collisions, time.process_time()
@@ -80,7 +83,7 @@ def _huge_pages() -> tuple[int, int]:
 
 def start(tree: str, args) -> subprocess.Popen:
     env = {**os.environ, "PYTHONPATH": os.path.join(os.path.abspath(tree), "src")}
-    cmd = [sys.executable, __file__, "--worker", "--n", str(args.n), "--eta", str(args.eta), "--neighbours", args.neighbours, "--chunk", str(args.chunk), "--dim", str(args.dim), "--replicate", str(args.replicate)] + (["--walls"] if args.walls else []) + (["--emdstar"] if args.emdstar else []) + (["--rough"] if args.rough else [])
+    cmd = [sys.executable, __file__, "--worker", "--n", str(args.n), "--eta", str(args.eta), "--neighbours", args.neighbours, "--chunk", str(args.chunk), "--dim", str(args.dim), "--replicate", str(args.replicate)] + (["--walls"] if args.walls else []) + (["--emdstar"] if args.emdstar else []) + (["--rough"] if args.rough else []) + (["--bath"] if args.bath else [])
     proc = subprocess.Popen(["taskset", "-c", str(args.core), *cmd], env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     ready = proc.stdout.readline().split()
     if not ready or ready[0] != "ready":
@@ -111,11 +114,12 @@ def main():
     ap.add_argument("--replicate", type=int, default=1, help="relax n / k^dim particles and tile them k times per axis (large N; hard spheres)")
     ap.add_argument("--emdstar", action="store_true", help="eMD* (the viscoelastic gas of bench_emdstar.py) instead of elastic hard spheres")
     ap.add_argument("--rough", action="store_true", help="perfectly rough elastic spheres (e_n = 1, beta = 1; the rough loop variant)")
+    ap.add_argument("--bath", action="store_true", help="an Andersen heat bath (the bath loop variant)")
     ap.add_argument("--out", default=None)
     ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.worker:
-        return worker(args.n, args.eta, args.neighbours, args.chunk, args.walls, args.dim, args.emdstar, args.replicate, args.rough)
+        return worker(args.n, args.eta, args.neighbours, args.chunk, args.walls, args.dim, args.emdstar, args.replicate, args.rough, args.bath)
     ra, rb, pair_medians = [], [], []
     for p in range(args.pairs):
         # the process started first may find more free huge pages: the order alternates too
@@ -147,7 +151,7 @@ def main():
     print(f"A: best {summary['A']['best']:.4f} median {summary['A']['median']:.4f} M collisions/s")
     print(f"B: best {summary['B']['best']:.4f} median {summary['B']['median']:.4f} M collisions/s")
     print(f"B/A per round: median {statistics.median(ratios):.4f} (min {min(ratios):.4f}, max {max(ratios):.4f}, {args.rounds} rounds x {args.pairs} pairs)")
-    out = args.out or f"benchmarks/results/paired_{args.n}_{args.eta}_{args.neighbours}{'_2d' if args.dim == 2 else ''}{'_emdstar' if args.emdstar else ''}{'_rough' if args.rough else ''}.json"
+    out = args.out or f"benchmarks/results/paired_{args.n}_{args.eta}_{args.neighbours}{'_2d' if args.dim == 2 else ''}{'_emdstar' if args.emdstar else ''}{'_rough' if args.rough else ''}{'_bath' if args.bath else ''}.json"
     write_results(out, args, [summary])
 
 

@@ -154,10 +154,11 @@ def loop_variant(
     one of them too: a cells run never compiles shell exits, a lists run neither cell crossings
     nor their inlined scans, and a list rebuild tests only the neighbours it added
     (:func:`.schedule.predict_added`; its call site in a loop shared by both structures ran
-    cell-mode gases 2-5 % slower). The lists and eMD* variants pass their inlined helpers the
-    structure as a constant; the other cells variants read it at run time (``ip[IP_MODE]``):
-    paired runs measured each form the faster where it is used (session 38: plain cells 1.10
-    for the run-time read, eMD* 1.06 for the constant; the code layout decides).
+    cell-mode gases 2-5 % slower). The lists, eMD* and rough variants pass their inlined helpers
+    the structure as a constant; the other cells variants read it at run time (``ip[IP_MODE]``):
+    paired runs measured each form the faster where it is used (the code layout decides:
+    plain cells 1.10 for the run-time read, the heat bath 1.02, walls even; eMD* 1.06 and rough
+    spheres 1.06 at eta = 0.05 and 1.01 at 0.3 for the constant; benchmarks/README.md).
 
     Debug mode (``ip[IP_DEBUG]``, one test per collision) is a run-time choice: its check is a
     called function, compiled once, and as a closure flag it gave every variant that a debug run
@@ -220,9 +221,9 @@ def _make_loop(walls, emd_on, rough, normal, bath_on, kick_on, well, grow, use_l
         bath_t = drive.bath_t
         n = P.shape[0]
         key = q.key
-        if use_lists:  # (a constant in the lists and eMD* variants, read at run time in the others: see loop_variant)
+        if use_lists:  # (a constant in the lists, eMD* and rough variants, read at run time in the others: see loop_variant)
             mode = NB_LIST
-        elif emd_on:
+        elif emd_on or rough:
             mode = NB_CELLS
         else:
             mode = ip[L.IP_MODE]

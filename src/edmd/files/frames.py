@@ -7,10 +7,11 @@ exist at once, copies each again while writing, and keeps all of frame 0 in memo
 with: at N = 1e6 a trajectory output peaked at ~570 B per particle above the run
 (benchmarks/README.md, "Memory"). Here a frame is a mapping of chunk names to arrays or to
 functions that make them: each is made, written and dropped in turn, and frame 0 is kept as
-one 16-byte digest per chunk (BLAKE2b of its dtype, shape and bytes; read back from the file at
-the second frame, so one-frame files such as checkpoints never digest). A later chunk whose
-digest equals frame 0's is not written (the reader takes frame 0's, which is identical); every
-other one is, log entries included.
+a fingerprint per chunk (:class:`_Fingerprint`: its dtype, shape and 16-byte digest, BLAKE2b of
+its bytes, or its one value if all its elements hold it; read back from the file at the second
+frame, so one-frame files such as checkpoints never take them). A later chunk equal to frame 0's
+is not written (the reader takes frame 0's, which is identical); every other one is, log entries
+included.
 
 Chunks are written in sorted name order, so copying a file's frames (:func:`copy_frames`, used
 to cut a trajectory back to a checkpoint) gives the same bytes as writing them did.
@@ -42,6 +43,54 @@ def _digest(data: np.ndarray) -> bytes:
     h = hashlib.blake2b(f"{data.dtype.str}{data.shape}".encode(), digest_size=16)
     h.update(data)
     return h.digest()
+
+
+#: elements of a chunk compared before its digest is taken (:class:`_Fingerprint`)
+SAMPLES = 16
+
+
+def _sample(data: np.ndarray) -> bytes:
+    """The bytes of :data:`SAMPLES` elements of ``data`` spread over it (all of a small chunk)."""
+    flat = data.reshape(-1)
+    if flat.size > SAMPLES:
+        flat = flat[np.linspace(0, flat.size - 1, SAMPLES).astype(np.int64)]
+    return flat.tobytes()
+
+
+def _uniform(data: np.ndarray) -> bytes | None:
+    """The bytes of the one value of ``data`` when all its elements hold them (bit for bit), else
+    ``None``. A broadcast constant (:func:`edmd.state.filled`) is not read beyond its value."""
+    if data.size == 0:
+        return None
+    first = data[(0,) * data.ndim].tobytes()
+    if not any(data.strides):
+        return first
+    if data.dtype.itemsize not in (1, 2, 4, 8):
+        return None
+    bits = np.ascontiguousarray(data).reshape(-1).view(f"u{data.dtype.itemsize}")
+    return first if bool((bits == bits[0]).all()) else None
+
+
+class _Fingerprint:
+    """What a later chunk is compared with instead of frame 0's data: its dtype and shape, and its
+    one value if it is uniform (:func:`_uniform`: no digest needed), else :data:`SAMPLES` of its
+    elements and its digest. A chunk that differs from frame 0's at the samples (positions,
+    velocities) is not digested: the digests were half the time of writing a frame."""
+
+    def __init__(self, data: np.ndarray):
+        self.kind = (data.dtype.str, data.shape)
+        self.uniform = _uniform(data)
+        self.sample = self.digest = None
+        if self.uniform is None:
+            self.sample, self.digest = _sample(data), _digest(data)
+
+    def matches(self, data: np.ndarray) -> bool:
+        """Whether ``data`` equals the chunk, bit for bit."""
+        if (data.dtype.str, data.shape) != self.kind:
+            return False
+        if self.uniform is not None:
+            return _uniform(data) == self.uniform
+        return _sample(data) == self.sample and _digest(np.ascontiguousarray(data)) == self.digest
 
 
 class _GSDFile:
@@ -80,7 +129,7 @@ class FrameWriter(_GSDFile):
     def __init__(self, path: str | os.PathLike, mode: str = "w"):
         self.path = str(path)
         self._file = gsd.fl.open(self.path, mode, application=f"edmd (gsd {gsd.version.version})", schema=SCHEMA, schema_version=SCHEMA_VERSION)
-        self._first: dict[str, bytes] | None = None  # (frame 0's digests: taken at the second frame, read back)
+        self._first: dict[str, _Fingerprint] | None = None  # (frame 0's: taken at the second frame, read back)
 
     def __len__(self) -> int:
         return self._file.nframes
@@ -90,12 +139,12 @@ class FrameWriter(_GSDFile):
         first = self._file.nframes == 0
         if not first and self._first is None:  # (one-frame files, e.g. checkpoints, never digest)
             f = self._file
-            self._first = {name: _digest(f.read_chunk(0, name)) for name in f.find_matching_chunk_names("") if f.chunk_exists(0, name)}
+            self._first = {name: _Fingerprint(f.read_chunk(0, name)) for name in f.find_matching_chunk_names("") if f.chunk_exists(0, name)}
         for name in sorted(chunks):
             data = chunks[name]
-            data = np.ascontiguousarray(data() if callable(data) else data)
-            if first or self._first.get(name) != _digest(data):
-                self._file.write_chunk(name, data)
+            data = np.asarray(data() if callable(data) else data)
+            if first or name not in self._first or not self._first[name].matches(data):
+                self._file.write_chunk(name, np.ascontiguousarray(data))
             del data
         self._file.end_frame()
         self._file.flush()
