@@ -1,9 +1,10 @@
-"""What a thermo row costs: CPU seconds per row of ``edmd.Thermo`` (written to a CSV file), for
-one or more source trees side by side (issue 11: observers that stream copies).
+"""What an output costs: CPU seconds per row of ``edmd.Thermo`` (written to a CSV file) or per
+frame of ``edmd.Trajectory`` (``--output trajectory``), for one or more source trees side by
+side (issue 11: observers that stream copies).
 
 Each tree runs in a worker process of its own (``PYTHONPATH=TREE/src``) that builds the case
 (:func:`bench_paired.make_case`, equilibrated) and then serves rounds: in each, the same span
-of simulation time is run without observers and with ``--rows`` thermo rows, and the row's cost
+of simulation time is run without observers and with ``--rows`` outputs, and the output's cost
 is the difference of the two CPU times divided by the rows. The trees' rounds alternate. Prints
 and writes the best and the median per tree, in ms per row and ns per particle per row.
 
@@ -37,7 +38,11 @@ def worker(args) -> None:
         t0 = time.process_time()
         sim.run(until_time=sim.time + span)
         bare = time.process_time() - t0
-        sim.add(edmd.Thermo(span / args.rows, path=os.path.join(folder, f"thermo{k}.csv"), start=sim.time + span / args.rows))
+        every, first = span / args.rows, sim.time + span / args.rows
+        if args.output == "thermo":
+            sim.add(edmd.Thermo(every, path=os.path.join(folder, f"thermo{k}.csv"), start=first))
+        else:
+            sim.add(edmd.Trajectory(os.path.join(folder, f"trajectory{k}.gsd"), every, start=first))
         t0 = time.process_time()
         sim.run(until_time=sim.time + span)
         observed = time.process_time() - t0
@@ -54,7 +59,8 @@ def main() -> None:
     ap.add_argument("--neighbours", default="cells")
     ap.add_argument("--emdstar", action="store_true", help="the eMD* gas of bench_emdstar.py")
     ap.add_argument("--replicate", type=int, default=1, help="tile a relaxed box of n / replicate^dim particles (large N)")
-    ap.add_argument("--rows", type=int, default=50, help="thermo rows per round")
+    ap.add_argument("--output", choices=["thermo", "trajectory"], default="thermo")
+    ap.add_argument("--rows", type=int, default=50, help="outputs per round")
     ap.add_argument("--span", type=float, default=2.0, help="events per particle per round (roughly)")
     ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--out", default=None)
@@ -63,7 +69,7 @@ def main() -> None:
     if args.worker:
         return worker(args)
     trees = args.trees or [os.path.join(os.path.dirname(__file__), "..")]
-    flags = ["--n", str(args.n), "--eta", str(args.eta), "--dim", str(args.dim), "--neighbours", args.neighbours, "--rows", str(args.rows), "--replicate", str(args.replicate), "--span", str(args.span)]
+    flags = ["--n", str(args.n), "--eta", str(args.eta), "--dim", str(args.dim), "--neighbours", args.neighbours, "--rows", str(args.rows), "--output", args.output, "--replicate", str(args.replicate), "--span", str(args.span)]
     procs = []
     for tree in trees:
         env = {**os.environ, "PYTHONPATH": os.path.join(os.path.abspath(tree), "src")}
@@ -84,8 +90,8 @@ def main() -> None:
     for tree, c in zip(trees, costs):
         best, median = min(c), statistics.median(c)
         results.append({"tree": tree, "seconds_per_row": c, "best_ms": best * 1e3, "median_ms": median * 1e3, "best_ns_per_particle": best * 1e9 / args.n})
-        print(f"{tree}: {best * 1e3:.3f} / {median * 1e3:.3f} ms per row (best / median), {best * 1e9 / args.n:.1f} ns per particle")
-    write_results(args.out or f"results/outputs_{args.n}_{args.eta}{'_emdstar' if args.emdstar else ''}.json", args, results)
+        print(f"{tree}: {best * 1e3:.3f} / {median * 1e3:.3f} ms per {'row' if args.output == 'thermo' else 'frame'} (best / median), {best * 1e9 / args.n:.1f} ns per particle")
+    write_results(args.out or os.path.join(os.path.dirname(os.path.abspath(__file__)), "results", f"outputs_{args.output}_{args.n}_{args.eta}{'_emdstar' if args.emdstar else ''}.json"), args, results)
 
 
 if __name__ == "__main__":
