@@ -98,7 +98,6 @@ def stream_rows(P, image, t, d, geo, reach, lo):
     return bad
 
 
-
 #: the entries of :func:`particle_sums`: total mass, momentum (x, y, z), twice the kinetic energy
 #: relative to a velocity ``u``, twice the rotational energy, and :math:`\sum_i m_i\,\mathbf g\cdot\mathbf r_i`
 S_MASS, S_PX, S_PY, S_PZ, S_TWICE_KINETIC, S_TWICE_SPIN, S_MASS_HEIGHT, N_SUMS = range(8)
