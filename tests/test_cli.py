@@ -204,6 +204,18 @@ def test_compile_warms_the_loop_of_a_feature_set():
     assert "walls+vibration (cells): already cached" in r.output
 
 
+def test_compile_also_warms_what_the_outputs_compile(monkeypatch):
+    from edmd.app.precompile import compile_features, parse_features
+    from edmd.run.engine import Engine
+
+    called = []
+    for name in ("sums", "stream"):
+        method = getattr(Engine, name)
+        monkeypatch.setattr(Engine, name, lambda self, *a, _m=method, _n=name, **k: called.append(_n) or _m(self, *a, **k))
+    compile_features(parse_features("walls"), "cells")
+    assert "sums" in called and "stream" in called  # (a thermo row's sums, a frame's streams: compiled per geometry)
+
+
 def test_compile_takes_both_neighbour_structures_unless_told():
     # neighbours = "auto" may pick either; square wells and growth run with lists only
     r = runner.invoke(app, ["compile", "plain", "well"])

@@ -158,7 +158,9 @@ def _example(features: frozenset[str], neighbours: str):
 
 
 def compile_features(features: frozenset[str], neighbours: str = "cells") -> tuple[str, float, bool]:
-    """Compile (or load) the loop variant of ``features`` with ``neighbours`` (``"cells"`` or ``"list"``).
+    """Compile (or load) the loop variant of ``features`` with ``neighbours`` (``"cells"`` or
+    ``"list"``), and what the outputs compile for its geometry (the snapshot's streams, a thermo
+    row's sums).
 
     Returns its name, the seconds it took and whether it was already in the on-disk cache.
 
@@ -175,5 +177,8 @@ def compile_features(features: frozenset[str], neighbours: str = "cells") -> tup
     if sim.engine.loop is not loop:  # the toy system must have exactly the features asked for
         raise RuntimeError(f"internal error: {sim.engine.loop.name} ({sim.engine.loop.neighbours}) built for {loop.name} ({loop.neighbours})")
     sim.run(max_events=200)
+    view = sim.state_view()  # what the outputs compile at their first row or frame, for this geometry
+    view.temperature()
+    view.copy()
     geometry = "+vibration" if "vibration" in features else "+shear" if "shear" in features else ""
     return f"{loop.name}{geometry} ({loop.neighbours})", time.perf_counter() - start, cached
