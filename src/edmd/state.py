@@ -593,30 +593,22 @@ class StateView(State):
             self._summed[key] = self._sums(u, self._flow, gravity)
         return self._summed[key]
 
-    def relative_to_shear(self, rate: float) -> StateView:
-        r"""This view with velocities relative to the shear flow :math:`\dot\gamma y\hat{\mathbf x}`
-        (:meth:`edmd.Shear.peculiar_state`), still made when read.
+    def in_flow(self, rate: float, velocity) -> StateView:
+        r"""This view seen in a shear flow :math:`\dot\gamma y\hat{\mathbf x}` of rate ``rate``: its
+        velocities made by ``velocity()`` when read (the peculiar velocities, which
+        :meth:`edmd.Shear.peculiar_state` gives it) and its sums relative to the flow.
 
         Example:
             >>> import edmd
             >>> shear = edmd.Shear(rate=0.5)
             >>> s = shear.with_profile(edmd.maxwell_boltzmann(edmd.lattice(64, 0.2), 1.0, seed=1))
-            >>> view = edmd.Simulation(s, shear=shear).state_view().relative_to_shear(0.5)
+            >>> view = shear.peculiar_state(edmd.Simulation(s, shear=shear).state_view())  # (view.in_flow(0.5, ...))
             >>> round(view.temperature(), 12), bool(abs(view.velocity - s.velocity).max() > 0.1)
             (1.0, True)
         """
-        makers = dict(self._makers)
-        velocity, position = makers["velocity"], makers["position"]
-
-        def peculiar():
-            v = np.array(velocity(), float)
-            v[:, 0] -= rate * position()[:, 1]
-            return v
-
-        makers["velocity"] = peculiar
         fixed = {k: v for k, v in self.__dict__.items() if not k.startswith("_")}
-        view = StateView.of(self._n, self._dim, fixed, makers, self._valid, self._sums)
-        view._flow = self._flow + float(rate)
+        view = StateView.of(self._n, self._dim, fixed, {**self._makers, "velocity": velocity}, self._valid, self._sums)
+        view._flow = float(rate)
         return view
 
     def total_mass(self) -> float:
@@ -649,9 +641,7 @@ class StateView(State):
     def potential_energy(self, gravity) -> float:
         if self._sums is None or gravity is None or not np.any(gravity):
             return super().potential_energy(gravity)
-        g = np.zeros(3)
-        g[: self._dim] = np.asarray(gravity, float)[: self._dim]
-        return -float(self._summed_over(gravity=g)[S_MASS_HEIGHT])
+        return -float(self._summed_over(gravity=gravity)[S_MASS_HEIGHT])
 
     @property
     def n(self) -> int:

@@ -63,9 +63,10 @@ class Shear:
 
     def peculiar_state(self, state: State) -> State:
         """``state`` with its velocities relative to the flow (:meth:`peculiar_velocity`); of a
-        :class:`~edmd.state.StateView`, a view (:meth:`~edmd.state.StateView.relative_to_shear`)."""
+        :class:`~edmd.state.StateView`, a view (:meth:`~edmd.state.StateView.in_flow`: its velocities
+        made when read, its sums relative to the flow)."""
         if isinstance(state, StateView):
-            return state.relative_to_shear(self.rate)
+            return state.in_flow(self.rate, lambda: self.peculiar_velocity(state))
         return dataclasses.replace(state, velocity=self.peculiar_velocity(state), check_overlaps=False)
 
     def with_profile(self, state: State) -> State:

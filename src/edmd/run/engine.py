@@ -1067,7 +1067,7 @@ class Engine:
         velocities relative to ``u`` and to the shear flow of rate ``flow``, in one pass over the
         engine's own rows (no copy of every particle, no user order)."""
         p = self.part
-        pending = self.emd.pending_dv if self.emd_rule is not None else np.zeros((0, 3))
+        pending = self.emd.pending_dv if self.emd_rule is not None else np.zeros((0, 3))  # (the bundle without eMD* holds a (0,) array)
         s = np.zeros(N_SUMS)
         particle_sums(p.rows, p.mass, p.image, pending, p.omega, p.inertia, t - self.t_origin, self.dim, self.geo,
                       _vector3(u), float(flow), _vector3(gravity), s, np.zeros(N_SUMS))  # fmt: skip
