@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from edmd._core.cells import cell_block, cells_buffer_size, crossing_time, grid_shape, near_block, new_grid, walk_block
+from edmd._core.cells import cell_block, cell_coords, cells_buffer_size, crossing_time, grid_shape, near_block, new_grid, walk_block
 from edmd._core.images import image_offset
 from edmd._core.layout import make_geo
 
@@ -32,6 +32,18 @@ def _block(cc, nc, periodic, reach):
         else:
             want.add((q[0] * nc[1] + q[1]) * nc[2] + q[2])
     return want
+
+
+@pytest.mark.parametrize("nc", [(5, 4, 3), (7, 1, 1), (1, 9, 11), (1290, 1290, 1290), (46340, 46340, 1)])
+def test_cell_coords_invert_the_cell_index(nc):
+    """Every cell of small grids, and the corners and random cells of grids near the int32 limit
+    of cell indices (a 2D grid has nz = 1), against Python's divmod."""
+    count = nc[0] * nc[1] * nc[2]
+    rng = np.random.default_rng(1)
+    cells = range(count) if count < 1000 else [0, 1, nc[2] - 1, nc[1] * nc[2], count - 1, *rng.integers(0, count, 200)]
+    for c in cells:
+        cxy, cz = divmod(int(c), nc[2])
+        assert cell_coords(np.int32(c), np.int64(nc[1]), np.int64(nc[2])) == (*divmod(cxy, nc[1]), cz)
 
 
 @pytest.mark.parametrize("nc, periodic", [((5, 4, 3), (1, 1, 1)), ((4, 4, 1), (1, 1, 0)), ((5, 2, 3), (0, 0, 1)), ((3, 3, 3), (1, 1, 1))])

@@ -245,13 +245,22 @@ def _plain_block(geo, out, frame, gaps, room):
 
 
 @leaf
+def cell_coords(c, ny, nz):
+    """Coordinates ``(cx, cy, cz)`` of cell ``c = (cx ny + cy) nz + cz`` (cell indices are int32):
+    two unsigned divisions, where Python's floor division and modulo of signed integers would
+    take four, each with its sign correction (a crossing finds its cell's coordinates three times)."""
+    u = np.uint64(c)
+    q = u // np.uint64(nz)
+    cx = q // np.uint64(ny)
+    return np.int64(cx), np.int64(q - cx * np.uint64(ny)), np.int64(u - q * np.uint64(nz))
+
+
+@leaf
 def _block_frame(grid, c, axis, step, reach):
     """Cells per axis, the coordinates of cell ``c`` and the offsets searched on each axis (:func:`_offsets`)."""
     gi = grid.shape
     nx, ny, nz = gi[0], gi[1], gi[2]
-    cz = c % nz
-    cy = (c // nz) % ny
-    cx = c // (nz * ny)
+    cx, cy, cz = cell_coords(c, ny, nz)
     lox, hix = _offsets(0, nx, axis, step, reach)
     loy, hiy = _offsets(1, ny, axis, step, reach)
     loz, hiz = _offsets(2, nz, axis, step, reach)

@@ -18,7 +18,7 @@ from numba import types
 from numba.extending import overload
 
 from . import layout as L
-from .cells import GI_BIGS, cell_insert, cell_of_point, cell_remove, count_work, crossing_time, face_side, next_or_big, prefetch_firsts, reach_of, walk_block, walk_cells, walk_next
+from .cells import GI_BIGS, cell_coords, cell_insert, cell_of_point, cell_remove, count_work, crossing_time, face_side, next_or_big, prefetch_firsts, reach_of, walk_block, walk_cells, walk_next
 from .images import cross_y_face, fold_into_box, sheared, sheared_type
 from .jit import hot, jit, leaf
 from .layout import NB_LIST
@@ -283,7 +283,7 @@ def next_crossing(i, t, P, grid, geo):
     gi, gf = grid.shape, grid.size
     c = grid.cell[i]
     ncy, ncz = gi[1], gi[2]
-    coords = (c // (ncy * ncz), (c // ncz) % ncy, c % ncz)
+    coords = cell_coords(c, ncy, ncz)
     xs = flight(P, i, t, geo)
     best = INF
     kind = L.AUX_NONE
@@ -468,7 +468,7 @@ def ride_events(i, t, P, ev, grid, lists, geo, mode, skin):
     else:
         gi, gf = grid.shape, grid.size
         c = grid.cell[i]
-        coords = (c // (gi[1] * gi[2]), (c // gi[2]) % gi[1], c % gi[2])
+        coords = cell_coords(c, gi[1], gi[2])
         for m in range(3):
             if m == k:
                 lo = -0.5 * geo[m] + coords[m] * gf[m]
@@ -514,7 +514,7 @@ def cross_cell(i, t, kind, P, image, count, ev, grid, geo, cbuf, pending):
     step = 1 if (kind - L.AUX_CELL) & 1 else -1
     c = grid.cell[i]
     ny, nz = gi[1], gi[2]
-    cx, cy, cz = c // (ny * nz), (c // nz) % ny, c % nz
+    cx, cy, cz = cell_coords(c, ny, nz)
     ck = (cx, cy, cz)[k] + step
     if k == 1 and (ck == gi[1] or ck < 0) and cross_sheared_face(i, t, 1 if ck > 0 else -1, P, image, count, ev, grid, geo, cbuf, pending):
         return
