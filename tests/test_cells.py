@@ -9,6 +9,7 @@ import pytest
 from edmd._core.cells import cell_block, cell_coords, cells_buffer_size, crossing_time, grid_shape, near_block, new_grid, walk_block
 from edmd._core.images import image_offset
 from edmd._core.layout import make_geo
+from edmd._core.predict import gap_time
 
 
 def _coords(c, nc):
@@ -144,6 +145,25 @@ def test_crossing_time(v, g, expected_face):
     assert face == expected_face
     assert x == pytest.approx(0.5 if face else -0.5, abs=1e-12)
     assert crossing_time(0.1, 0.0, 0.0, 2, 5, 5.0, 1.0, True)[0] == np.inf
+
+
+@pytest.mark.parametrize("periodic", [True, False])
+def test_crossing_time_without_gravity_is_the_gap_root_of_the_face_ahead(periodic):
+    """The select form (no gravity) against the two faces' roots of predict.gap_time, bit for
+    bit: inside the cell, on a face, a round-off gap behind a face, at rest, and in the edge
+    cells of an open axis (whose outer faces are not crossings)."""
+    rng = np.random.default_rng(3)
+    for _ in range(2000):
+        c = int(rng.integers(0, 5))
+        lo = -2.5 + c
+        x = lo + float(rng.choice([rng.uniform(0.0, 1.0), 0.0, 1.0, -1e-17, 1.0 + 1e-16]))
+        v = float(rng.choice([rng.normal(), 0.0, -0.0]))
+        t_up = gap_time(lo + 1.0 - x, -v, -0.0) if periodic or c < 4 else np.inf
+        t_lo = gap_time(x - lo, v, 0.0) if periodic or c > 0 else np.inf
+        t, face = crossing_time(x, v, 0.0, c, 5, 5.0, 1.0, periodic)
+        assert t == min(t_up, t_lo) and np.signbit(t) == np.signbit(min(t_up, t_lo))
+        if t < np.inf:
+            assert face == (1 if t_up <= t_lo else 0)
 
 
 @pytest.mark.parametrize("rate", [0.3, -1.7])
