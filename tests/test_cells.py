@@ -104,6 +104,29 @@ def test_layer_after_crossing_is_the_new_neighbourhood_part():
     assert len(layer) == 9
 
 
+@pytest.mark.parametrize("nc, periodic", [((5, 4, 3), (1, 1, 1)), ((6, 5, 1), (1, 1, 0)), ((4, 3, 5), (0, 0, 1)), ((2, 3, 4), (0, 1, 0))])
+def test_crossing_layers_in_the_order_of_the_full_block(nc, periodic):
+    """Every cell, axis and direction of a crossing: the layer (one copy of its loops per axis in
+    cell_block) lists the cells at offset ``step`` on the crossed axis in the order the full block
+    lists them (x, then y, then z, offsets ascending; the order decides between exactly equal
+    contact times, so a trajectory does not change with the code that lists the cells)."""
+    box = np.array(nc, float)
+    geo = make_geo(box, np.where(np.array(periodic, bool), 0.5 * box, np.inf))
+    grid = new_grid(1, box, np.array(nc))
+    out = np.empty(27, np.int32)
+    for c in range(int(np.prod(nc))):
+        cc = _coords(c, nc)
+        for axis in range(3):
+            for step in (-1, 1) if nc[axis] > 1 else ():
+                want = []
+                for off in itertools.product(*[(step,) if k == axis else (-1, 0, 1) if nc[k] > 1 else (0,) for k in range(3)]):
+                    q = [cc[k] + off[k] for k in range(3)]
+                    q = [x % nc[k] if periodic[k] else x for k, x in enumerate(q)]
+                    if all(0 <= q[k] < nc[k] for k in range(3)):
+                        want.append((q[0] * nc[1] + q[1]) * nc[2] + q[2])
+                assert out[: cell_block(grid, c, geo, out, axis, step, 0.0, math.inf)].tolist() == want, (c, axis, step)
+
+
 @pytest.mark.parametrize("reach", [1, 2, 3])
 @pytest.mark.parametrize("nc, periodic", [((8, 9, 10), (1, 1, 1)), ((8, 8, 1), (1, 1, 0)), ((7, 3, 8), (0, 0, 1))])
 def test_walk_block_covers_reach_cells_and_the_layer_after_a_crossing(nc, periodic, reach):

@@ -183,7 +183,40 @@ def cell_block(grid, c, geo, out, axis, step, t, horizon):
     n = sheared_block(grid, c, geo, out, axis, step, t, horizon)
     if n >= 0:
         return n
-    return _plain_block(geo, out, _block_frame(grid, c, axis, step, np.int64(1)), NO_GAPS, INF)
+    if axis < 0:
+        return _plain_block(geo, out, _block_frame(grid, c, axis, step, np.int64(1)), NO_GAPS, INF)
+    gi = grid.shape
+    nx, ny, nz = gi[0], gi[1], gi[2]
+    cx, cy, cz = cell_coords(c, ny, nz)
+    px, py, pz = geo[3] < INF, geo[4] < INF, geo[5] < INF
+    # one copy of the layer's loops per axis: which axis a crossing crossed is a coin toss, and
+    # in a loop shared by the three axes its trip counts followed it
+    if axis == 0:
+        return _layer(out, _shift(cx, step, nx, px) * ny * nz, cy, ny, py, nz, cz, nz, pz, 1)
+    if axis == 1:
+        return _layer(out, _shift(cy, step, ny, py) * nz, cx, nx, px, ny * nz, cz, nz, pz, 1)
+    return _layer(out, _shift(cz, step, nz, pz), cx, nx, px, ny * nz, cy, ny, py, nz)
+
+
+@leaf
+def _layer(out, base, cu, nu, pu, su, cv, nv, pv, sv):
+    """The cells ``base + u su + v sv`` around ``(cu, cv)`` on the two axes across a crossing (``nu``,
+    ``nv`` cells, periodic ``pu``, ``pv``), ``u`` outer; none when ``base < 0`` (beyond an open edge)."""
+    if base < 0:
+        return 0
+    n = 0
+    reach_u = 1 if nu > 1 else 0
+    reach_v = 1 if nv > 1 else 0
+    for ou in range(-reach_u, reach_u + 1):
+        u = _shift(cu, ou, nu, pu)
+        if u < 0:
+            continue
+        for ov in range(-reach_v, reach_v + 1):
+            v = _shift(cv, ov, nv, pv)
+            if v >= 0:
+                out[n] = base + u * su + v * sv
+                n += 1
+    return n
 
 
 @leaf
